@@ -1,0 +1,1 @@
+"""slam package (being built)."""

@@ -1,0 +1,7 @@
+"""Worlds as YAML, ground-truth occupancy grids and ROS map files."""
+from worlds.grid import FREE_THRESH, OCCUPIED_THRESH, Grid
+from worlds.model import ROBOT_RADIUS, Obstacle, Wall, World
+from worlds.yamlio import InputError, from_dict, load_yaml
+
+__all__ = ["Grid", "World", "Wall", "Obstacle", "ROBOT_RADIUS", "InputError", "from_dict",
+           "load_yaml", "OCCUPIED_THRESH", "FREE_THRESH"]

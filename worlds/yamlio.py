@@ -1,0 +1,180 @@
+"""YAML loading and dataclass configs shared by every package.
+
+`InputError` is the one error type for what a user gave us (a bad file or field);
+commands print it as one line and exit 2. Bugs keep their traceback.
+`from_dict(cls, data, where)` builds a (nested) dataclass from a mapping, rejecting
+unknown keys with a "did you mean" hint and wrong types with the field's path.
+"""
+from __future__ import annotations
+
+import dataclasses
+import difflib
+import os
+import tempfile
+import types
+import typing
+from pathlib import Path
+from typing import Any, Mapping
+
+import yaml
+
+__all__ = ["InputError", "load_yaml", "from_dict", "to_dict", "dump_yaml", "atomic_write_bytes",
+           "atomic_write_text"]
+
+
+class InputError(ValueError):
+    """A problem with user input: names the file, the field and what is wrong."""
+
+
+def load_yaml(path: str | os.PathLike) -> Any:
+    """Parse a YAML file; a missing or malformed file raises InputError naming it."""
+    p = Path(path)
+    try:
+        text = p.read_text()
+    except FileNotFoundError:
+        raise InputError(f"{p}: file not found") from None
+    except OSError as err:
+        raise InputError(f"{p}: cannot read: {err.strerror}") from None
+    try:
+        return yaml.safe_load(text)
+    except yaml.YAMLError as err:
+        mark = getattr(err, "problem_mark", None)
+        at = f" (line {mark.line + 1})" if mark is not None else ""
+        raise InputError(f"{p}: not valid YAML{at}: {getattr(err, 'problem', err)}") from None
+
+
+def _suggest(key: str, allowed: list[str]) -> str:
+    close = difflib.get_close_matches(key, allowed, n=1)
+    return f" (did you mean '{close[0]}'?)" if close else f" (allowed: {', '.join(allowed)})"
+
+
+def _convert(tp: Any, value: Any, where: str, field: str) -> Any:
+    """Convert `value` to type `tp`, raising InputError that names `where: field`."""
+    origin = typing.get_origin(tp)
+    args = typing.get_args(tp)
+    if tp is Any:
+        return value
+    if origin in (typing.Union, types.UnionType):
+        if value is None and type(None) in args:
+            return None
+        errors = []
+        for a in args:
+            if a is type(None):
+                continue
+            try:
+                return _convert(a, value, where, field)
+            except InputError as err:
+                errors.append(str(err))
+        raise InputError(errors[0] if errors else f"{where}: {field}: unexpected null")
+    if dataclasses.is_dataclass(tp):
+        if not isinstance(value, Mapping):
+            raise InputError(f"{where}: {field}: expected a mapping, got {value!r}")
+        return from_dict(tp, value, where, prefix=f"{field}.")
+    if tp is bool:
+        if not isinstance(value, bool):
+            raise InputError(f"{where}: {field}: expected true or false, got {value!r}")
+        return value
+    if tp is int:
+        if isinstance(value, bool) or not isinstance(value, int):
+            if isinstance(value, float) and value.is_integer():
+                return int(value)
+            raise InputError(f"{where}: {field}: expected an integer, got {value!r}")
+        return value
+    if tp is float:
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise InputError(f"{where}: {field}: expected a number, got {value!r}")
+        return float(value)
+    if tp is str:
+        if not isinstance(value, str):
+            raise InputError(f"{where}: {field}: expected a string, got {value!r}")
+        return value
+    if origin is tuple or tp is tuple:
+        if not isinstance(value, (list, tuple)):
+            raise InputError(f"{where}: {field}: expected a list, got {value!r}")
+        if args and args[-1] is not Ellipsis:
+            if len(value) != len(args):
+                raise InputError(f"{where}: {field}: expected {len(args)} values, got {len(value)}")
+            return tuple(_convert(a, v, where, f"{field}[{i}]") for i, (a, v) in enumerate(zip(args, value)))
+        inner = args[0] if args else Any
+        return tuple(_convert(inner, v, where, f"{field}[{i}]") for i, v in enumerate(value))
+    if origin is list or tp is list:
+        if not isinstance(value, (list, tuple)):
+            raise InputError(f"{where}: {field}: expected a list, got {value!r}")
+        inner = args[0] if args else Any
+        return [_convert(inner, v, where, f"{field}[{i}]") for i, v in enumerate(value)]
+    if origin is dict or tp is dict:
+        if not isinstance(value, Mapping):
+            raise InputError(f"{where}: {field}: expected a mapping, got {value!r}")
+        return dict(value)
+    if typing.get_origin(tp) is typing.Literal:
+        if value not in args:
+            raise InputError(f"{where}: {field}: expected one of {list(args)}, got {value!r}")
+        return value
+    return value
+
+
+def from_dict(cls: type, data: Mapping[str, Any] | None, where: str = "<config>", prefix: str = ""):
+    """Build dataclass `cls` from `data`, defaults for missing keys, unknown keys rejected.
+
+    where: the file (or other source) named in errors; prefix: the dotted path of `cls`
+    inside that file. Raises InputError("pf.yaml: motion.srr: expected a number, got 'x'").
+    """
+    if data is None:
+        data = {}
+    if not isinstance(data, Mapping):
+        raise InputError(f"{where}: {prefix.rstrip('.') or 'top level'}: expected a mapping, got {data!r}")
+    hints = typing.get_type_hints(cls)
+    fields = {f.name: f for f in dataclasses.fields(cls) if f.init}
+    kwargs = {}
+    for key, value in data.items():
+        if key not in fields:
+            raise InputError(f"{where}: {prefix}{key}: unknown key{_suggest(str(key), sorted(fields))}")
+        kwargs[key] = _convert(hints[key], value, where, f"{prefix}{key}")
+    try:
+        return cls(**kwargs)
+    except InputError:
+        raise
+    except (TypeError, ValueError) as err:
+        raise InputError(f"{where}: {prefix.rstrip('.') or 'config'}: {err}") from None
+
+
+def to_dict(obj: Any) -> Any:
+    """Plain YAML-ready data of a (nested) dataclass: tuples become lists."""
+    if dataclasses.is_dataclass(obj) and not isinstance(obj, type):
+        return {f.name: to_dict(getattr(obj, f.name)) for f in dataclasses.fields(obj)}
+    if isinstance(obj, (list, tuple)):
+        return [to_dict(v) for v in obj]
+    if isinstance(obj, dict):
+        return {k: to_dict(v) for k, v in obj.items()}
+    if hasattr(obj, "item") and callable(obj.item):  # numpy scalar
+        return obj.item()
+    return obj
+
+
+def dump_yaml(data: Any) -> str:
+    """YAML text of plain data or a dataclass, keys in definition order."""
+    return yaml.safe_dump(to_dict(data), sort_keys=False, default_flow_style=None)
+
+
+def atomic_write_bytes(path: str | os.PathLike, data: bytes) -> None:
+    """Write `data` to `path` via a temporary file and rename: never a half-written file."""
+    p = Path(path)
+    p.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{p.name}.", suffix=".tmp", dir=p.parent)
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            fh.write(data)
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.replace(tmp, p)
+    except BaseException:
+        try:
+            os.unlink(tmp)
+        except OSError:
+            pass
+        raise
+
+
+def atomic_write_text(path: str | os.PathLike, text: str) -> None:
+    """Atomic text write (UTF-8), see atomic_write_bytes."""
+    atomic_write_bytes(path, text.encode("utf-8"))
