@@ -171,7 +171,7 @@ def read_log(path: str | Path) -> SensorLog:
     if "meta" not in data:
         raise InputError(f"{p}: not a sensor log: no 'meta' entry")
     try:
-        meta = json.loads(str(data["meta"]))
+        meta = json.loads(str(np.asarray(data["meta"]).reshape(-1)[0]))
     except json.JSONDecodeError as err:
         raise InputError(f"{p}: meta: not valid JSON: {err}") from None
     version = meta.get("format_version")
