@@ -1,0 +1,172 @@
+"""Sparse pose adjustment (Konolige et al. 2010) as Cartographer's 2D optimization problem.
+
+Variables: the global poses of all submaps and all nodes (scans kept by the motion filter).
+Each constraint says "node j seen from submap i is at z" (the relative pose in submap i's
+frame), with a translation and a rotation weight. The residual is Cartographer's
+`ScaleError(z^-1 (x) (submap^-1 (x) node))`: the error pose scaled *by* the weights (not by
+their square roots), so the cost of one constraint is 0.5 * (w_t^2 |dt|^2 + w_r^2 dtheta^2).
+Loop-closure constraints (Cartographer's INTER_SUBMAP tag) go through a Huber loss of scale
+`huber_scale`, so one wrong loop closure pulls with bounded force; the local ones
+(INTRA_SUBMAP, from the local SLAM) do not. Consecutive nodes are tied together by their
+local-SLAM relative motion (local_slam_pose_*_weight). The gauge is fixed by holding the
+first submap at its current pose, as Cartographer does.
+
+Solved with scipy.optimize.least_squares (method 'trf') and an analytic sparse Jacobian.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+from scipy.optimize import least_squares
+
+from slam.pose import relative, wrap_angle
+
+__all__ = ["Constraints", "spa_residuals", "optimize_poses"]
+
+
+@dataclass(frozen=True, eq=False)
+class Constraints:
+    """Relative-pose constraints between pose variables of one problem.
+
+    i, j: (C,) int indices into the stacked variable array (submaps then nodes, or any
+    order the caller chooses); z: (C, 3) pose of j in the frame of i (x, y m, yaw rad);
+    w_t, w_r: (C,) translation (1/m) and rotation (1/rad) weights; robust: (C,) bool, Huber
+    loss on this constraint (loop closures).
+    """
+
+    i: np.ndarray
+    j: np.ndarray
+    z: np.ndarray
+    w_t: np.ndarray
+    w_r: np.ndarray
+    robust: np.ndarray
+
+    def __post_init__(self):
+        n = len(np.asarray(self.i))
+        for name, shape in (("j", (n,)), ("z", (n, 3)), ("w_t", (n,)), ("w_r", (n,)), ("robust", (n,))):
+            arr = np.asarray(getattr(self, name))
+            if arr.shape != shape:
+                raise ValueError(f"Constraints.{name}: expected shape {shape}, got {arr.shape}")
+
+    @staticmethod
+    def concat(parts: list["Constraints"]) -> "Constraints":
+        """One Constraints from several (empty list -> no constraint)."""
+        if not parts:
+            return Constraints(np.zeros(0, int), np.zeros(0, int), np.zeros((0, 3)), np.zeros(0),
+                               np.zeros(0), np.zeros(0, bool))
+        return Constraints(*(np.concatenate([getattr(p, f) for p in parts])
+                             for f in ("i", "j", "z", "w_t", "w_r", "robust")))
+
+
+def spa_residuals(poses: np.ndarray, c: Constraints) -> np.ndarray:
+    """(C, 3) weighted errors of the constraints at `poses` ((P, 3) global poses)."""
+    rel = relative(poses[c.i], poses[c.j])
+    # Error expressed in the measured frame z, as Cartographer's ComputeUnscaledError.
+    ct, st = np.cos(c.z[:, 2]), np.sin(c.z[:, 2])
+    dx = rel[:, 0] - c.z[:, 0]
+    dy = rel[:, 1] - c.z[:, 1]
+    ex = ct * dx + st * dy
+    ey = -st * dx + ct * dy
+    et = wrap_angle(rel[:, 2] - c.z[:, 2])
+    return np.stack([c.w_t * ex, c.w_t * ey, c.w_r * et], axis=1)
+
+
+def _jacobian(poses: np.ndarray, c: Constraints, free_col: np.ndarray, n_free: int) -> sp.csr_matrix:
+    """Sparse d(residuals)/d(free variables) of spa_residuals, rows 3k..3k+2 for constraint k."""
+    pi, pj = poses[c.i], poses[c.j]
+    th = pi[:, 2]
+    dtx = pj[:, 0] - pi[:, 0]
+    dty = pj[:, 1] - pi[:, 1]
+    ci, si = np.cos(th), np.sin(th)
+    cz, sz = np.cos(c.z[:, 2]), np.sin(c.z[:, 2])
+    # ex = R(z)^T R(th_i)^T (t_j - t_i) - ...; R(z)^T R(th_i)^T = R(th_i + z_th)^T
+    ca, sa = np.cos(th + c.z[:, 2]), np.sin(th + c.z[:, 2])
+    del ci, si, cz, sz
+    n = len(c.i)
+    rows, cols, vals = [], [], []
+
+    def add(r_off, var_idx, comp, v):
+        col = free_col[var_idx] * 3 + comp
+        ok = free_col[var_idx] >= 0
+        rows.append((np.arange(n) * 3 + r_off)[ok])
+        cols.append(col[ok])
+        vals.append(np.broadcast_to(v, (n,))[ok])
+
+    wt, wr = c.w_t, c.w_r
+    # d ex / d t_j = w_t * [ca, sa]; d ey / d t_j = w_t * [-sa, ca]
+    add(0, c.j, 0, wt * ca); add(0, c.j, 1, wt * sa)
+    add(1, c.j, 0, -wt * sa); add(1, c.j, 1, wt * ca)
+    add(0, c.i, 0, -wt * ca); add(0, c.i, 1, -wt * sa)
+    add(1, c.i, 0, wt * sa); add(1, c.i, 1, -wt * ca)
+    # d/d th_i of [ca*dtx + sa*dty, -sa*dtx + ca*dty]
+    add(0, c.i, 2, wt * (-sa * dtx + ca * dty))
+    add(1, c.i, 2, wt * (-ca * dtx - sa * dty))
+    add(2, c.j, 2, wr)
+    add(2, c.i, 2, -wr)
+    return sp.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
+                         shape=(3 * n, 3 * n_free))
+
+
+def optimize_poses(poses: np.ndarray, c: Constraints, fixed: np.ndarray | None = None,
+                   huber_scale: float = 10.0, max_iterations: int = 50,
+                   tolerance: float = 1e-8) -> np.ndarray:
+    """Sparse pose adjustment: the poses that best satisfy the constraints.
+
+    poses: (P, 3) initial global poses; c: constraints over indices into poses;
+    fixed: (P,) bool, poses held constant (the gauge; default: pose 0); huber_scale: scale of
+    the Huber loss on robust constraints (in weighted-residual units, Cartographer's
+    optimization_problem.huber_scale). Returns (P, 3) optimized poses (yaw wrapped).
+    """
+    poses = np.asarray(poses, dtype=np.float64).copy()
+    n_poses = len(poses)
+    if fixed is None:
+        fixed = np.zeros(n_poses, bool)
+        fixed[0] = True
+    fixed = np.asarray(fixed, bool)
+    if len(c.i) == 0 or fixed.all():
+        return poses
+    free_idx = np.flatnonzero(~fixed)
+    free_col = -np.ones(n_poses, np.int64)
+    free_col[free_idx] = np.arange(len(free_idx))
+    robust_rows = np.repeat(np.asarray(c.robust, bool), 3)
+    base = poses.copy()
+    # Unwrapped yaw offsets keep the parametrisation smooth; wrap only at the end.
+    x0 = np.zeros(3 * len(free_idx))
+
+    def current(x):
+        p = base.copy()
+        p[free_idx] += x.reshape(-1, 3)
+        return p
+
+    def fun(x):
+        return spa_residuals(current(x), c).reshape(-1)
+
+    def jac(x):
+        return _jacobian(current(x), c, free_col, len(free_idx))
+
+    def loss(z):
+        # Huber on the robust rows only (scipy passes z = f^2 per residual component).
+        rho = np.empty((3, len(z)))
+        rho[0] = z
+        rho[1] = 1.0
+        rho[2] = 0.0
+        zr = z[robust_rows]
+        d2 = huber_scale ** 2
+        big = zr > d2
+        sq = np.sqrt(np.maximum(zr, 1e-300))
+        r0 = np.where(big, 2.0 * huber_scale * sq - d2, zr)
+        r1 = np.where(big, huber_scale / sq, 1.0)
+        r2 = np.where(big, -0.5 * huber_scale / (sq * np.maximum(zr, 1e-300)), 0.0)
+        rho[0, robust_rows] = r0
+        rho[1, robust_rows] = r1
+        rho[2, robust_rows] = r2
+        return rho
+
+    res = least_squares(fun, x0, jac=jac, method="trf", loss=loss if robust_rows.any() else "linear",
+                        x_scale=1.0, max_nfev=max_iterations, ftol=tolerance, xtol=tolerance,
+                        gtol=tolerance, tr_solver="lsmr")
+    out = current(res.x)
+    out[:, 2] = wrap_angle(out[:, 2])
+    return out
