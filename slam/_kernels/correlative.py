@@ -1,0 +1,235 @@
+"""Correlative scan matching kernels (Olson 2009; Hess, Kohler, Rapp, Andor 2016, Sec. V).
+
+A candidate pose is (k, dx, dy): rotation k of a list of pre-rotated, pre-discretised scans,
+then an integer cell shift. Its score is the mean grid value under the scan's points
+(cells outside the grid count 0).
+
+- `max_grids`: Cartographer's precomputation grids. Level h holds, at each cell, the maximum
+  over the 2^h x 2^h block of cells starting there, so the score of one candidate at level h
+  bounds the score of every candidate in the block of shifts it stands for.
+- `bnb_search`: the branch-and-bound of the fast correlative scan matcher: all rotations at
+  the coarsest level, then depth-first into the most promising blocks, pruning every block
+  whose bound is not above the best leaf found (or min_score).
+- `score_candidates`: every candidate at the finest level (the real-time correlative matcher
+  and the brute-force reference of the branch and bound).
+
+Each compiled kernel has a plain numpy reference (`*_ref`) written independently, for tests.
+Storage convention of the max grids: one (D+1, rows+pad, cols+pad) float32 array with
+pad = 2^D - 1; grid cell (r, c) sits at [h, r+pad, c+pad], so blocks reaching the grid from
+below or from the left are stored too.
+"""
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+__all__ = ["max_grids", "max_grids_ref", "bnb_search", "score_candidates", "score_candidates_ref",
+           "best_candidate_ref"]
+
+
+@njit(cache=True)
+def max_grids(prob, depth):
+    """prob: (R, C) float grid values (NaN not allowed; use 0 for unknown); depth: D >= 0.
+
+    Returns (D+1, R+pad, C+pad) float32 with pad = 2^D - 1; [h, i, j] = max of prob over rows
+    i-pad .. i-pad+2^h-1 and cols j-pad .. j-pad+2^h-1 (0 outside prob).
+    """
+    rows, cols = prob.shape
+    pad = (1 << depth) - 1
+    out = np.zeros((depth + 1, rows + pad, cols + pad), np.float32)
+    for r in range(rows):
+        for c in range(cols):
+            out[0, r + pad, c + pad] = prob[r, c]
+    R = rows + pad
+    C = cols + pad
+    for h in range(1, depth + 1):
+        w = 1 << (h - 1)
+        for i in range(R):
+            for j in range(C):
+                m = out[h - 1, i, j]
+                if i + w < R:
+                    v = out[h - 1, i + w, j]
+                    if v > m:
+                        m = v
+                    if j + w < C:
+                        v = out[h - 1, i + w, j + w]
+                        if v > m:
+                            m = v
+                if j + w < C:
+                    v = out[h - 1, i, j + w]
+                    if v > m:
+                        m = v
+                out[h, i, j] = m
+    return out
+
+
+def max_grids_ref(prob: np.ndarray, depth: int) -> np.ndarray:
+    """Numpy reference of max_grids: each level by an explicit max over shifted copies."""
+    rows, cols = prob.shape
+    pad = (1 << depth) - 1
+    big = np.zeros((rows + 2 * pad + 1, cols + 2 * pad + 1), np.float32)
+    big[pad:pad + rows, pad:pad + cols] = prob
+    out = np.zeros((depth + 1, rows + pad, cols + pad), np.float32)
+    for h in range(depth + 1):
+        w = 1 << h
+        level = np.zeros((rows + pad, cols + pad), np.float32)
+        for a in range(w):
+            for b in range(w):
+                level = np.maximum(level, big[a:a + rows + pad, b:b + cols + pad])
+        out[h] = level
+    return out
+
+
+@njit(cache=True)
+def _score(grids, h, pad, cells, k, dx, dy):
+    level = grids[h]
+    R = level.shape[0]
+    C = level.shape[1]
+    n = cells.shape[1]
+    s = 0.0
+    for p in range(n):
+        i = cells[k, p, 1] + dy + pad
+        j = cells[k, p, 0] + dx + pad
+        if 0 <= i < R and 0 <= j < C:
+            s += level[i, j]
+    return s / n
+
+
+@njit(cache=True)
+def score_candidates(grid, cells, wx, wy):
+    """Scores of all candidates at the finest level.
+
+    grid: (R, C) float values; cells: (K, P, 2) int32 (col, row) of each point at each
+    rotation for shift (0, 0); wx, wy: shift windows in cells. Returns (K, 2wy+1, 2wx+1)
+    float64 mean values, [k, dy+wy, dx+wx].
+    """
+    K, n = cells.shape[0], cells.shape[1]
+    R, C = grid.shape
+    out = np.zeros((K, 2 * wy + 1, 2 * wx + 1))
+    for k in range(K):
+        for p in range(n):
+            c0 = cells[k, p, 0]
+            r0 = cells[k, p, 1]
+            for a in range(2 * wy + 1):
+                i = r0 + a - wy
+                if i < 0 or i >= R:
+                    continue
+                for b in range(2 * wx + 1):
+                    j = c0 + b - wx
+                    if 0 <= j < C:
+                        out[k, a, b] += grid[i, j]
+    return out / n
+
+
+def score_candidates_ref(grid: np.ndarray, cells: np.ndarray, wx: int, wy: int) -> np.ndarray:
+    """Numpy reference of score_candidates: pad the grid, gather per shift."""
+    K, n = cells.shape[:2]
+    padded = np.zeros((grid.shape[0] + 2 * wy + 2, grid.shape[1] + 2 * wx + 2))
+    out = np.zeros((K, 2 * wy + 1, 2 * wx + 1))
+    for dy in range(-wy, wy + 1):
+        for dx in range(-wx, wx + 1):
+            r = cells[:, :, 1] + dy
+            c = cells[:, :, 0] + dx
+            ok = (r >= 0) & (r < grid.shape[0]) & (c >= 0) & (c < grid.shape[1])
+            vals = np.where(ok, grid[np.clip(r, 0, grid.shape[0] - 1), np.clip(c, 0, grid.shape[1] - 1)], 0.0)
+            out[:, dy + wy, dx + wx] = vals.sum(axis=1) / n
+    del padded
+    return out
+
+
+def best_candidate_ref(grid: np.ndarray, cells: np.ndarray, wx: int, wy: int) -> tuple[int, int, int, float]:
+    """Brute force: (k, dx, dy, score) of the best candidate, by scoring all of them."""
+    s = score_candidates_ref(np.asarray(grid, np.float32).astype(np.float64), cells, wx, wy)
+    k, a, b = np.unravel_index(int(np.argmax(s)), s.shape)
+    return int(k), int(b - wx), int(a - wy), float(s[k, a, b])
+
+
+@njit(cache=True)
+def bnb_search(grids, cells, wx, wy, min_score):
+    """Branch and bound over rotations and cell shifts (Hess et al. 2016, Algorithm 3).
+
+    grids: from max_grids (depth D = grids.shape[0]-1); cells: (K, P, 2) int32; wx, wy: shift
+    windows (|dx| <= wx, |dy| <= wy); min_score: leaves must score above it.
+    Returns (k, dx, dy, score); k = -1 when no candidate beats min_score.
+    """
+    D = grids.shape[0] - 1
+    pad = (1 << D) - 1
+    K = cells.shape[0]
+    step = 1 << D
+    nx = (2 * wx) // step + 1
+    ny = (2 * wy) // step + 1
+    n_top = K * nx * ny
+    cap = n_top + 4 * (D + 1) + 8
+    sk = np.empty(cap, np.int64)
+    sx = np.empty(cap, np.int64)
+    sy = np.empty(cap, np.int64)
+    sh = np.empty(cap, np.int64)
+    ss = np.empty(cap, np.float64)
+    # Coarsest level: score every block, push in ascending order so the best pops first.
+    tk = np.empty(n_top, np.int64)
+    tx = np.empty(n_top, np.int64)
+    ty = np.empty(n_top, np.int64)
+    ts = np.empty(n_top, np.float64)
+    m = 0
+    for k in range(K):
+        for a in range(ny):
+            for b in range(nx):
+                dx = -wx + b * step
+                dy = -wy + a * step
+                tk[m] = k
+                tx[m] = dx
+                ty[m] = dy
+                ts[m] = _score(grids, D, pad, cells, k, dx, dy)
+                m += 1
+    order = np.argsort(ts)
+    top = 0
+    for q in range(n_top):
+        o = order[q]
+        sk[top] = tk[o]
+        sx[top] = tx[o]
+        sy[top] = ty[o]
+        sh[top] = D
+        ss[top] = ts[o]
+        top += 1
+    best_k, best_x, best_y = -1, 0, 0
+    best = min_score
+    ck = np.empty(4, np.int64)
+    cx = np.empty(4, np.int64)
+    cy = np.empty(4, np.int64)
+    cs = np.empty(4, np.float64)
+    while top > 0:
+        top -= 1
+        s = ss[top]
+        if s <= best:
+            continue
+        k, dx, dy, h = sk[top], sx[top], sy[top], sh[top]
+        if h == 0:
+            best, best_k, best_x, best_y = s, k, dx, dy
+            continue
+        half = 1 << (h - 1)
+        nc = 0
+        for a in range(2):
+            for b in range(2):
+                x = dx + b * half
+                y = dy + a * half
+                if x > wx or y > wy:
+                    continue
+                ck[nc] = k
+                cx[nc] = x
+                cy[nc] = y
+                cs[nc] = _score(grids, h - 1, pad, cells, k, x, y)
+                nc += 1
+        # Push children worst first so the best child is explored next (depth first).
+        for _ in range(nc):
+            lo = -1
+            for q in range(nc):
+                if cs[q] >= -1e300 and (lo < 0 or cs[q] < cs[lo]):
+                    lo = q
+            sk[top] = ck[lo]
+            sx[top] = cx[lo]
+            sy[top] = cy[lo]
+            sh[top] = h - 1
+            ss[top] = cs[lo]
+            top += 1
+            cs[lo] = -1e301
+    return best_k, best_x, best_y, best

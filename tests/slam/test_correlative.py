@@ -1,0 +1,50 @@
+"""Correlative scan matching kernels: precomputation grids, branch and bound == brute force."""
+import numpy as np
+import pytest
+
+from slam._kernels.correlative import (best_candidate_ref, bnb_search, max_grids, max_grids_ref,
+                                       score_candidates, score_candidates_ref)
+
+
+def _problem(rng, rows=40, cols=50, K=5, P=30, w=9):
+    grid = rng.random((rows, cols)).astype(np.float32) ** 3      # few high cells, no ties
+    cells = np.stack([rng.integers(-3, cols + 3, (K, P)), rng.integers(-3, rows + 3, (K, P))],
+                     axis=2).astype(np.int32)
+    return grid, cells, w
+
+
+@pytest.mark.kernel
+@pytest.mark.parametrize("depth", [0, 1, 3])
+def test_max_grids_matches_reference(rng, depth):
+    grid = rng.random((13, 17)).astype(np.float32)
+    np.testing.assert_array_equal(max_grids(grid, depth), max_grids_ref(grid, depth))
+
+
+@pytest.mark.kernel
+def test_score_candidates_matches_reference(rng):
+    grid, cells, w = _problem(rng)
+    np.testing.assert_allclose(score_candidates(grid.astype(np.float64), cells, w, w - 2),
+                               score_candidates_ref(grid.astype(np.float64), cells, w, w - 2), atol=1e-12)
+
+
+@pytest.mark.kernel
+@pytest.mark.parametrize("seed", range(8))
+@pytest.mark.parametrize("depth", [1, 2, 4])
+def test_branch_and_bound_equals_brute_force(seed, depth):
+    rng = np.random.default_rng(seed)
+    grid, cells, w = _problem(rng, w=5 + seed)
+    grids = max_grids(grid, depth)
+    k, dx, dy, s = bnb_search(grids, cells, w, w + 1, 0.0)
+    rk, rdx, rdy, rs = best_candidate_ref(grid, cells, w, w + 1)
+    assert (k, dx, dy) == (rk, rdx, rdy)
+    assert s == pytest.approx(rs, rel=1e-5)
+
+
+@pytest.mark.kernel
+def test_branch_and_bound_respects_min_score(rng):
+    grid, cells, w = _problem(rng)
+    _, _, _, best = best_candidate_ref(grid, cells, w, w)
+    k, *_ = bnb_search(max_grids(grid, 3), cells, w, w, best + 1e-3)
+    assert k == -1
+    k, *_ = bnb_search(max_grids(grid, 3), cells, w, w, best - 1e-3)
+    assert k >= 0
