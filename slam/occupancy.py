@@ -1,0 +1,144 @@
+"""LogOddsGrid: a log-odds occupancy grid that grows as the robot explores.
+
+Cells hold log-odds l = log(p / (1 - p)); NaN marks a cell no ray has touched yet. The grid
+grows in whole blocks of cells, keeping its lattice (the origin moves by whole cells), so a
+scan inserted anywhere always lands inside it. Ray insertion is slam._kernels.insert.
+
+Log-odds from the probabilities SLAM packages quote (Hector's update_factor_free/occupied):
+`logodds(p) = log(p / (1 - p))`.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from worlds.grid import Grid
+from slam._kernels.insert import insert_rays_inplace
+
+__all__ = ["LogOddsGrid", "logodds"]
+
+
+def logodds(p: float) -> float:
+    """log(p / (1 - p)) of a probability in (0, 1)."""
+    if not 0.0 < p < 1.0:
+        raise ValueError(f"probability must lie in (0, 1), got {p}")
+    return math.log(p / (1.0 - p))
+
+
+class LogOddsGrid:
+    """A growing log-odds occupancy grid.
+
+    resolution: m per cell; center: (2,) world x, y the first block is centred on;
+    l_free, l_occ: log-odds added to freed / hit cells; l_min, l_max: clamping bounds;
+    block: growth step in cells (the grid grows by whole blocks, at least `margin` m
+    beyond any inserted point).
+    """
+
+    def __init__(self, resolution: float = 0.05, center=(0.0, 0.0), l_free: float = logodds(0.4),
+                 l_occ: float = logodds(0.9), l_min: float = -5.0, l_max: float = 5.0,
+                 block: int = 64, size: float = 8.0, margin: float = 0.5):
+        if resolution <= 0:
+            raise ValueError(f"resolution must be positive, got {resolution}")
+        self.resolution = float(resolution)
+        self.l_free, self.l_occ = float(l_free), float(l_occ)
+        self.l_min, self.l_max = float(l_min), float(l_max)
+        self.block = int(block)
+        self.margin = float(margin)
+        n = max(self.block, int(math.ceil(size / self.resolution / self.block)) * self.block)
+        # integer cell index of the lower-left corner on the global lattice (multiples of res)
+        self._i0 = int(math.floor(center[0] / self.resolution)) - n // 2
+        self._j0 = int(math.floor(center[1] / self.resolution)) - n // 2
+        self.logodds = np.full((n, n), np.nan)
+        self.version = 0  # bumped by every change, for callers caching derived maps
+
+    # --- geometry ---------------------------------------------------------------------
+    @property
+    def origin(self) -> np.ndarray:
+        """(2,) world x, y of the lower-left corner of cell (0, 0)."""
+        return np.array([self._i0 * self.resolution, self._j0 * self.resolution])
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        return self.logodds.shape
+
+    @property
+    def meta(self) -> np.ndarray:
+        """(5,) [ox, oy, resolution, rows, cols] for the kernels."""
+        ox, oy = self.origin
+        return np.array([ox, oy, self.resolution, self.shape[0], self.shape[1]], dtype=np.float64)
+
+    def ensure(self, xy_min, xy_max) -> bool:
+        """Grow so the box [xy_min, xy_max] (m) plus the margin lies inside. True if it grew."""
+        res, b = self.resolution, self.block
+        rows, cols = self.shape
+        lo_i = int(math.floor((xy_min[0] - self.margin) / res))
+        lo_j = int(math.floor((xy_min[1] - self.margin) / res))
+        hi_i = int(math.floor((xy_max[0] + self.margin) / res)) + 1
+        hi_j = int(math.floor((xy_max[1] + self.margin) / res)) + 1
+        add_l = max(0, -(-(self._i0 - lo_i) // b)) * b
+        add_b = max(0, -(-(self._j0 - lo_j) // b)) * b
+        add_r = max(0, -(-(hi_i - (self._i0 + cols)) // b)) * b
+        add_t = max(0, -(-(hi_j - (self._j0 + rows)) // b)) * b
+        if not (add_l or add_b or add_r or add_t):
+            return False
+        new = np.full((rows + add_b + add_t, cols + add_l + add_r), np.nan)
+        new[add_b:add_b + rows, add_l:add_l + cols] = self.logodds
+        self.logodds = new
+        self._i0 -= add_l
+        self._j0 -= add_b
+        self.version += 1
+        return True
+
+    # --- updates ----------------------------------------------------------------------
+    def insert_scan(self, sensor_pose, points_world_xy, hit_mask=None) -> int:
+        """Insert one scan: rays from the sensor to each point.
+
+        sensor_pose: (2,) or (3,) world pose of the lidar (only x, y are used);
+        points_world_xy: (N, 2) m ray end points; hit_mask: (N,) bool, True where the ray hit
+        something (occupied end cell), False for no-return rays (free to the end). Default: all hits.
+        Returns the number of cells updated.
+        """
+        o = np.ascontiguousarray(np.asarray(sensor_pose, dtype=np.float64)[:2])
+        pts = np.ascontiguousarray(np.asarray(points_world_xy, dtype=np.float64).reshape(-1, 2))
+        hits = (np.ones(len(pts), dtype=np.bool_) if hit_mask is None
+                else np.ascontiguousarray(np.asarray(hit_mask, dtype=np.bool_).reshape(-1)))
+        if len(hits) != len(pts):
+            raise ValueError(f"hit_mask has {len(hits)} entries for {len(pts)} points")
+        if len(pts) == 0:
+            return 0
+        allp = np.vstack([pts, o[None, :]])
+        self.ensure(allp.min(axis=0), allp.max(axis=0))
+        n = insert_rays_inplace(self.logodds, self.meta, o, pts, hits,
+                                self.l_free, self.l_occ, self.l_min, self.l_max)
+        self.version += 1
+        return int(n)
+
+    # --- views ------------------------------------------------------------------------
+    def prob(self, unknown: float = np.nan) -> np.ndarray:
+        """(rows, cols) occupancy probabilities; never-touched cells get `unknown` (NaN default)."""
+        p = 1.0 / (1.0 + np.exp(-np.nan_to_num(self.logodds, nan=0.0)))
+        p[np.isnan(self.logodds)] = unknown
+        return p
+
+    def to_grid(self, crop: bool = True) -> Grid:
+        """The map as a worlds.grid.Grid (NaN unknown), cropped to the touched cells plus one cell."""
+        p = self.prob()
+        origin = self.origin
+        if crop:
+            known = ~np.isnan(self.logodds)
+            if known.any():
+                r = np.nonzero(known.any(axis=1))[0]
+                c = np.nonzero(known.any(axis=0))[0]
+                r0, r1 = max(r[0] - 1, 0), min(r[-1] + 2, p.shape[0])
+                c0, c1 = max(c[0] - 1, 0), min(c[-1] + 2, p.shape[1])
+                p = p[r0:r1, c0:c1]
+                origin = origin + np.array([c0, r0]) * self.resolution
+        return Grid(p, self.resolution, np.array([origin[0], origin[1], 0.0]))
+
+    def copy(self) -> "LogOddsGrid":
+        """An independent copy (for particles)."""
+        new = LogOddsGrid.__new__(LogOddsGrid)
+        new.__dict__.update(self.__dict__)
+        new.logodds = self.logodds.copy()
+        return new

@@ -1,0 +1,130 @@
+"""Scan preprocessing: a raw lidar revolution -> end points in the robot (base) frame.
+
+Steps: range limits (NaN and readings below range_min dropped; inf or >= range_max = no
+return), optional angle decimation and voxel filter, the lidar mounting offset, and motion
+de-skew: beam j is taken at scan.t + j * time_increment (slam/base.py), so with the robot
+moving at a constant twist (v_x, v_y, w) during the revolution, the beam's pose relative to
+the robot at scan.t is the SE(2) exponential of twist * j * time_increment. The points come
+out expressed in the robot frame at scan.t, the time the SLAM's pose refers to.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from slam.base import ImuWindow, Scan
+from slam.pose import relative
+
+__all__ = ["PreprocessConfig", "ScanPoints", "preprocess", "twist_from_poses", "yaw_rate_from_imu",
+           "motion_during"]
+
+
+@dataclass(frozen=True)
+class PreprocessConfig:
+    """How scans are cleaned before use (shared by every algorithm)."""
+
+    range_min: float = 0.0    # m; readings below max(this, the sensor's range_min) are dropped
+    range_max: float = 0.0    # m; 0 = the sensor's range_max; readings at or beyond it are "no return"
+    angle_step: int = 1       # keep every k-th beam (1 = all)
+    voxel: float = 0.0        # m; > 0 keeps the first point of each voxel of this size
+    deskew: bool = True       # undo the motion during the revolution when a twist is known
+    free_range: float = 0.0   # m; no-return beams mark free space up to this range (0 = ignore them)
+
+    def __post_init__(self):
+        if self.angle_step < 1:
+            raise ValueError(f"angle_step must be >= 1, got {self.angle_step}")
+        for name in ("range_min", "range_max", "voxel", "free_range"):
+            if getattr(self, name) < 0:
+                raise ValueError(f"{name} must be >= 0, got {getattr(self, name)}")
+
+
+@dataclass(frozen=True, eq=False)
+class ScanPoints:
+    """A preprocessed scan, all in the robot frame at scan.t.
+
+    points: (N, 2) m end points of beams that hit something; misses: (M, 2) m points at
+    free_range along no-return beams; origin: (2,) m the lidar position (ray origin).
+    """
+
+    points: np.ndarray
+    misses: np.ndarray
+    origin: np.ndarray
+
+
+def motion_during(twist: np.ndarray, tau: np.ndarray) -> np.ndarray:
+    """(K, 3) robot poses at times tau (K,) s relative to tau = 0, for a constant twist (3,)
+    (v_x m/s, v_y m/s, w rad/s in the robot frame): the SE(2) exponential."""
+    vx, vy, w = (float(v) for v in twist)
+    tau = np.asarray(tau, dtype=np.float64)
+    th = w * tau
+    if abs(w) > 1e-9:
+        sin_t, one_cos = np.sin(th), 1.0 - np.cos(th)
+        dx = (vx * sin_t - vy * one_cos) / w
+        dy = (vx * one_cos + vy * sin_t) / w
+    else:
+        dx, dy = vx * tau, vy * tau
+    return np.stack([dx, dy, th], axis=-1)
+
+
+def _voxel_keep(pts: np.ndarray, size: float) -> np.ndarray:
+    """Indices (sorted) of the first point in each voxel of `size` m."""
+    if len(pts) == 0:
+        return np.zeros(0, dtype=np.int64)
+    keys = np.floor(pts / size).astype(np.int64)
+    _, first = np.unique(keys, axis=0, return_index=True)
+    return np.sort(first)
+
+
+def preprocess(scan: Scan, cfg: PreprocessConfig = PreprocessConfig(),
+               twist: np.ndarray | None = None) -> ScanPoints:
+    """Clean `scan` and return its points in the robot frame at scan.t.
+
+    twist: (3,) v_x, v_y (m/s), w (rad/s) in the robot frame during the revolution, or None
+    (no de-skew). Ranges in m, angles in rad.
+    """
+    ranges = np.asarray(scan.ranges, dtype=np.float64)
+    angles = np.asarray(scan.angles, dtype=np.float64)
+    idx = np.arange(len(ranges))
+    if cfg.angle_step > 1:
+        idx = idx[::cfg.angle_step]
+    r = ranges[idx]
+    rmin = max(cfg.range_min, float(scan.range_min), 0.0)
+    rmax = cfg.range_max if cfg.range_max > 0 else float(scan.range_max)
+    with np.errstate(invalid="ignore"):
+        hit = np.isfinite(r) & (r > rmin) & (r < rmax)
+        miss = (np.isposinf(r) | (np.isfinite(r) & (r >= rmax))) if cfg.free_range > 0 else np.zeros(len(r), bool)
+    off = np.asarray(scan.offset, dtype=np.float64)
+
+    def to_robot(beams: np.ndarray, rng_: np.ndarray) -> np.ndarray:
+        a = angles[beams] + off[2]
+        local = np.stack([off[0] + rng_ * np.cos(a), off[1] + rng_ * np.sin(a)], axis=1)
+        if cfg.deskew and twist is not None and scan.time_increment > 0 and len(beams):
+            m = motion_during(twist, beams * scan.time_increment)
+            c, s = np.cos(m[:, 2]), np.sin(m[:, 2])
+            local = np.stack([m[:, 0] + c * local[:, 0] - s * local[:, 1],
+                              m[:, 1] + s * local[:, 0] + c * local[:, 1]], axis=1)
+        return local
+
+    hb = idx[hit]
+    points = to_robot(hb, r[hit])
+    if cfg.voxel > 0 and len(points):
+        points = points[_voxel_keep(points, cfg.voxel)]
+    mb = idx[miss]
+    misses = to_robot(mb, np.full(len(mb), min(cfg.free_range, rmax))) if len(mb) else np.zeros((0, 2))
+    return ScanPoints(np.ascontiguousarray(points), np.ascontiguousarray(misses), off[:2].copy())
+
+
+def twist_from_poses(prev_pose: np.ndarray, pose: np.ndarray, dt: float) -> np.ndarray:
+    """(3,) constant twist that moves prev_pose to pose in dt s (robot frame of prev_pose)."""
+    if dt <= 0:
+        return np.zeros(3)
+    d = relative(prev_pose, pose)
+    return d / dt
+
+
+def yaw_rate_from_imu(imu: ImuWindow | None) -> float | None:
+    """Mean gyro yaw rate (rad/s) over the window, None without samples."""
+    if imu is None or len(imu.gyro) == 0:
+        return None
+    return float(np.mean(imu.gyro))
