@@ -1,0 +1,303 @@
+"""Gmapping's scan matcher on the per-particle count maps (Grisetti et al. 2007, GMapping
+ScanMatcher: score, likelihoodAndScore, optimize, and the sampled proposal moments).
+
+For every beam with a return, the hit point h and a point one cell before it along the beam
+(the "free" point f) are placed by the pose. In a (2 kernel + 1)^2 window around h's cell,
+a cell counts as a match when it is occupied (n / visits > fullness) and the cell at the
+same offset from f's cell is not (unknown counts as not occupied); of the matches the one
+whose mean hit point is nearest to h gives d^2. Then
+    score      = sum over matched beams of exp(-d^2 / sigma)
+    likelihood = sum over beams of (-d^2 / lsigma if matched else null_likelihood / lsigma)
+
+params (float64 array, one small array instead of many arguments):
+    [0] sigma  [1] lsigma  [2] null_likelihood  [3] fullness  [4] kernel
+    [5] lstep  [6] astep   [7] iterations
+    [8] llsamplerange  [9] llsamplestep  [10] lasamplerange  [11] lasamplestep
+
+Kernels and references:
+  score_and_likelihood(one pose)      <-> score_and_likelihood_ref (dense counters)
+  hill_climb (all particles)          <-> hill_climb_ref (plain loop over the reference score)
+  proposal_moments (all particles)    <-> proposal_moments_ref
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+__all__ = ["PARAMS", "make_params", "score_and_likelihood", "hill_climb", "proposal_moments",
+           "score_and_likelihood_ref", "hill_climb_ref", "proposal_moments_ref"]
+
+PARAMS = ("sigma", "lsigma", "null_likelihood", "fullness", "kernel", "lstep", "astep",
+          "iterations", "llsamplerange", "llsamplestep", "lasamplerange", "lasamplestep")
+
+
+def make_params(**kw) -> np.ndarray:
+    """The params array from keyword values named as in PARAMS (all required)."""
+    return np.array([float(kw[k]) for k in PARAMS])
+
+
+@njit(cache=True)
+def _cell(table, pool, grid_meta, r, c):
+    """(hits, visits, mean x, mean y) of cell (r, c); visits 0 when unknown or outside."""
+    rows, cols, tile = int(grid_meta[3]), int(grid_meta[4]), int(grid_meta[5])
+    if r < 0 or r >= rows or c < 0 or c >= cols:
+        return 0.0, 0.0, 0.0, 0.0
+    t = table[r // tile, c // tile]
+    if t < 0:
+        return 0.0, 0.0, 0.0, 0.0
+    lr = r % tile
+    lc = c % tile
+    n = pool[t, lr, lc, 0]
+    v = pool[t, lr, lc, 1]
+    if n <= 0:
+        return n, v, 0.0, 0.0
+    res = grid_meta[2]
+    return (n, v, grid_meta[0] + c * res + pool[t, lr, lc, 2] / n,
+            grid_meta[1] + r * res + pool[t, lr, lc, 3] / n)
+
+
+@njit(cache=True)
+def score_and_likelihood(table, pool, grid_meta, pose, hits, frees, params):
+    """(score, log likelihood) of one robot pose (3,) against one particle's map.
+
+    table: (TR, TC) int32; pool: (cap, T, T, 4) float32; hits, frees: (K, 2) robot frame, m.
+    """
+    sigma, lsigma, null_l, fullness = params[0], params[1], params[2], params[3]
+    kernel = int(params[4])
+    ox, oy, res = grid_meta[0], grid_meta[1], grid_meta[2]
+    c = math.cos(pose[2])
+    s = math.sin(pose[2])
+    score = 0.0
+    lik = 0.0
+    no_hit = null_l / lsigma
+    for k in range(hits.shape[0]):
+        hx = pose[0] + c * hits[k, 0] - s * hits[k, 1]
+        hy = pose[1] + s * hits[k, 0] + c * hits[k, 1]
+        fx = pose[0] + c * frees[k, 0] - s * frees[k, 1]
+        fy = pose[1] + s * frees[k, 0] + c * frees[k, 1]
+        hc = int(math.floor((hx - ox) / res))
+        hr = int(math.floor((hy - oy) / res))
+        dc = int(math.floor((fx - ox) / res)) - hc
+        dr = int(math.floor((fy - oy) / res)) - hr
+        best = np.inf
+        for yy in range(-kernel, kernel + 1):
+            for xx in range(-kernel, kernel + 1):
+                n, v, mx, my = _cell(table, pool, grid_meta, hr + yy, hc + xx)
+                if v <= 0 or n / v <= fullness:
+                    continue
+                fn, fv, _, _ = _cell(table, pool, grid_meta, hr + yy + dr, hc + xx + dc)
+                if fv > 0 and fn / fv > fullness:
+                    continue
+                d2 = (hx - mx) ** 2 + (hy - my) ** 2
+                if d2 < best:
+                    best = d2
+        if best < np.inf:
+            score += math.exp(-best / sigma)
+            lik += -best / lsigma
+        else:
+            lik += no_hit
+    return score, lik
+
+
+@njit(cache=True)
+def _climb_one(table, pool, grid_meta, init, hits, frees, params):
+    """Gmapping's optimize(): axis moves x, y, yaw; halve the steps when none improves."""
+    ldelta, adelta, iterations = params[5], params[6], int(params[7])
+    cur = init.copy()
+    cur_score, _ = score_and_likelihood(table, pool, grid_meta, cur, hits, frees, params)
+    best_score = -1.0
+    refinement = 0
+    trial = np.empty(3)
+    while True:
+        if best_score >= cur_score:
+            refinement += 1
+            ldelta *= 0.5
+            adelta *= 0.5
+        best_score = cur_score
+        best_local = cur.copy()
+        for move in range(6):
+            trial[:] = cur
+            if move == 0:
+                trial[0] += ldelta
+            elif move == 1:
+                trial[0] -= ldelta
+            elif move == 2:
+                trial[1] -= ldelta
+            elif move == 3:
+                trial[1] += ldelta
+            elif move == 4:
+                trial[2] += adelta
+            else:
+                trial[2] -= adelta
+            sc, _ = score_and_likelihood(table, pool, grid_meta, trial, hits, frees, params)
+            if sc > cur_score:
+                cur_score = sc
+                best_local[:] = trial
+        cur[:] = best_local
+        if not (cur_score > best_score or refinement < iterations):
+            break
+    return cur, best_score
+
+
+@njit(cache=True)
+def hill_climb(tables, pool, grid_meta, poses, hits, frees, params):
+    """Scan-match every particle against its own map from its pose.
+
+    tables: (N, TR, TC); poses: (N, 3). Returns matched poses (N, 3) and scores (N,).
+    """
+    n = poses.shape[0]
+    out = np.empty((n, 3))
+    scores = np.empty(n)
+    for p in range(n):
+        out[p], scores[p] = _climb_one(tables[p], pool, grid_meta, poses[p], hits, frees, params)
+    return out, scores
+
+
+@njit(cache=True)
+def proposal_moments(tables, pool, grid_meta, poses, prior_mean, prior_std, hits, frees, params):
+    """Gaussian proposal around each matched pose from likelihood x motion prior.
+
+    At the poses of the grid matched + (dx, dy, dyaw), dx, dy in -llsamplerange ..
+    llsamplerange by llsamplestep, dyaw likewise with the angular values, the target is
+    exp(log likelihood + log N(pose; prior_mean, diag(prior_std^2))). Returns the weighted
+    mean (N, 3), covariance (N, 3, 3) and log eta (N,), eta = the sum of the target over
+    the grid (the normaliser the particle's weight is multiplied by).
+    """
+    lr, ls, ar, ast = params[8], params[9], params[10], params[11]
+    nl = int(round(lr / ls)) if ls > 0 else 0
+    na = int(round(ar / ast)) if ast > 0 else 0
+    m = (2 * nl + 1) * (2 * nl + 1) * (2 * na + 1)
+    n = poses.shape[0]
+    means = np.empty((n, 3))
+    covs = np.empty((n, 3, 3))
+    log_eta = np.empty(n)
+    samples = np.empty((m, 3))
+    logt = np.empty(m)
+    for p in range(n):
+        j = 0
+        for ix in range(-nl, nl + 1):
+            for iy in range(-nl, nl + 1):
+                for ia in range(-na, na + 1):
+                    samples[j, 0] = poses[p, 0] + ix * ls
+                    samples[j, 1] = poses[p, 1] + iy * ls
+                    samples[j, 2] = poses[p, 2] + ia * ast
+                    _, lik = score_and_likelihood(tables[p], pool, grid_meta, samples[j], hits,
+                                                  frees, params)
+                    lp = 0.0
+                    for d in range(3):
+                        e = samples[j, d] - prior_mean[p, d]
+                        if d == 2:
+                            e = (e + math.pi) % (2 * math.pi) - math.pi
+                        lp += -0.5 * (e / prior_std[p, d]) ** 2 - math.log(prior_std[p, d])
+                    logt[j] = lik + lp
+                    j += 1
+        lmax = logt.max()
+        wsum = 0.0
+        mu = np.zeros(3)
+        for j in range(m):
+            w = math.exp(logt[j] - lmax)
+            wsum += w
+            mu += w * samples[j]
+        mu /= wsum
+        cov = np.zeros((3, 3))
+        for j in range(m):
+            w = math.exp(logt[j] - lmax) / wsum
+            e = samples[j] - mu
+            for a in range(3):
+                for b in range(3):
+                    cov[a, b] += w * e[a] * e[b]
+        means[p] = mu
+        covs[p] = cov
+        log_eta[p] = lmax + math.log(wsum)
+    return means, covs, log_eta
+
+
+# --- references (dense counters (rows, cols, 4) as insert_scan_ref builds them) -------------
+
+def _dense_cell(counts, grid_meta, r, c):
+    rows, cols = counts.shape[:2]
+    if not (0 <= r < rows and 0 <= c < cols) or counts[r, c, 1] <= 0:
+        return None
+    n, v = counts[r, c, 0], counts[r, c, 1]
+    res = grid_meta[2]
+    mean = None
+    if n > 0:
+        mean = np.array([grid_meta[0] + c * res + counts[r, c, 2] / n,
+                         grid_meta[1] + r * res + counts[r, c, 3] / n])
+    return n / v, mean
+
+
+def score_and_likelihood_ref(counts, grid_meta, pose, hits, frees, params):
+    """Plain statement of score_and_likelihood on dense counters (rows, cols, 4)."""
+    sigma, lsigma, null_l, fullness, kernel = params[:5]
+    kernel = int(kernel)
+    rot = np.array([[np.cos(pose[2]), -np.sin(pose[2])], [np.sin(pose[2]), np.cos(pose[2])]])
+    h_w = hits @ rot.T + pose[:2]
+    f_w = frees @ rot.T + pose[:2]
+    cell = lambda p: np.floor((p - grid_meta[:2]) / grid_meta[2]).astype(int)  # (col, row)
+    score = lik = 0.0
+    for h, f in zip(h_w, f_w):
+        hc, fc = cell(h), cell(f)
+        d2s = []
+        for yy in range(-kernel, kernel + 1):
+            for xx in range(-kernel, kernel + 1):
+                occ = _dense_cell(counts, grid_meta, hc[1] + yy, hc[0] + xx)
+                if occ is None or occ[0] <= fullness:
+                    continue
+                free = _dense_cell(counts, grid_meta, fc[1] + yy, fc[0] + xx)
+                if free is not None and free[0] > fullness:
+                    continue
+                d2s.append(float(np.sum((h - occ[1]) ** 2)))
+        if d2s:
+            score += np.exp(-min(d2s) / sigma)
+            lik += -min(d2s) / lsigma
+        else:
+            lik += null_l / lsigma
+    return score, lik
+
+
+def hill_climb_ref(counts, grid_meta, init, hits, frees, params):
+    """Gmapping's optimize() written plainly over the reference score; returns (pose, score)."""
+    ldelta, adelta, iterations = params[5], params[6], int(params[7])
+    score = lambda q: score_and_likelihood_ref(counts, grid_meta, q, hits, frees, params)[0]
+    cur = np.array(init, dtype=float)
+    cur_score = score(cur)
+    best_score, refinement = -1.0, 0
+    moves = lambda l, a: [(l, 0, 0), (-l, 0, 0), (0, -l, 0), (0, l, 0), (0, 0, a), (0, 0, -a)]
+    while True:
+        if best_score >= cur_score:
+            refinement += 1
+            ldelta, adelta = ldelta / 2, adelta / 2
+        best_score = cur_score
+        cands = [(score(cur + np.array(mv)), i) for i, mv in enumerate(moves(ldelta, adelta))]
+        better = [(s, i) for s, i in cands if s > cur_score]
+        if better:
+            # the strictly best move, first in move order on ties (as the sequential scan)
+            top = max(s for s, _ in better)
+            i = min(i for s, i in better if s == top)
+            cur, cur_score = cur + np.array(moves(ldelta, adelta)[i]), top
+        if not (cur_score > best_score or refinement < iterations):
+            return cur, best_score
+
+
+def proposal_moments_ref(counts, grid_meta, pose, prior_mean, prior_std, hits, frees, params):
+    """Plain statement of proposal_moments for one particle: (mean (3,), cov (3, 3), log eta)."""
+    lr, ls, ar, ast = params[8:12]
+    offs = [(x, y, a) for x in np.arange(-round(lr / ls), round(lr / ls) + 1) * ls
+            for y in np.arange(-round(lr / ls), round(lr / ls) + 1) * ls
+            for a in np.arange(-round(ar / ast), round(ar / ast) + 1) * ast]
+    xs = np.array(pose) + np.array(offs)
+    logt = []
+    for q in xs:
+        lik = score_and_likelihood_ref(counts, grid_meta, q, hits, frees, params)[1]
+        e = q - prior_mean
+        e[2] = (e[2] + np.pi) % (2 * np.pi) - np.pi
+        logt.append(lik + np.sum(-0.5 * (e / prior_std) ** 2 - np.log(prior_std)))
+    logt = np.array(logt)
+    log_eta = np.logaddexp.reduce(logt)
+    w = np.exp(logt - log_eta)
+    mean = w @ xs
+    cov = (xs - mean).T @ ((xs - mean) * w[:, None])
+    return mean, cov, float(log_eta)
