@@ -1,0 +1,157 @@
+"""Command line: python -m metrics score | trajectory | relations ...
+
+  score      --map MAP.yaml --truth TRUTH.yaml [--align MODE] [--start X,Y,YAW|none]
+             [--tolerance N] [--picture OUT.png] [--title TEXT] [--json]
+  trajectory --est EST.tum --truth GT.tum [--segment M] [--json]
+  relations  --traj EST.tum --relations FILE [--json]
+
+User errors (missing or malformed files, an empty map) print one line `error: ...` and exit 2.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+
+from worlds.yamlio import InputError
+
+__all__ = ["main", "build_parser", "to_json"]
+
+
+def to_json(obj) -> str:
+    """JSON text of a result dict; NaN and infinities become null (strict JSON)."""
+    def clean(v):
+        if isinstance(v, dict):
+            return {k: clean(x) for k, x in v.items()}
+        if isinstance(v, (list, tuple)):
+            return [clean(x) for x in v]
+        if isinstance(v, float) and not math.isfinite(v):
+            return None
+        if hasattr(v, "item") and callable(v.item):  # numpy scalar
+            return clean(v.item())
+        return v
+    return json.dumps(clean(obj), allow_nan=False)
+
+
+def _pose_arg(text: str):
+    if text.strip().lower() == "none":
+        return None
+    parts = text.split(",")
+    try:
+        vals = [float(p) for p in parts]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected X,Y,YAW (numbers) or 'none', got {text!r}") from None
+    if len(vals) != 3:
+        raise argparse.ArgumentTypeError(f"expected X,Y,YAW (3 numbers) or 'none', got {text!r}")
+    return tuple(vals)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    from metrics.align import MODES
+
+    p = argparse.ArgumentParser(prog="python -m metrics", description="Score maps and trajectories.")
+    sub = p.add_subparsers(dest="command", required=True)
+
+    s = sub.add_parser("score", help="grid portion (precision, sensitivity), ADNN, SSIM of a map")
+    s.add_argument("--map", required=True, help="estimated map (ROS map_server YAML + PGM)")
+    s.add_argument("--truth", required=True, help="true map (ROS map_server YAML + PGM)")
+    s.add_argument("--align", default="auto", choices=MODES,
+                   help="alignment mode (default auto: icp from --start, global if --start none)")
+    s.add_argument("--start", type=_pose_arg, default=(0.0, 0.0, 0.0), metavar="X,Y,YAW",
+                   help="prior transform map -> truth, i.e. the map frame's pose in the truth "
+                        "frame (default 0,0,0: the map is in the world frame); 'none' = unknown")
+    s.add_argument("--tolerance", type=int, default=0, help="match tolerance in cells (default 0)")
+    s.add_argument("--occupied-thresh", type=float, default=0.65)
+    s.add_argument("--picture", help="write the TP/FP/FN overlay PNG here")
+    s.add_argument("--title", default="", help="title of the picture")
+    s.add_argument("--json", action="store_true", help="print one JSON object")
+
+    t = sub.add_parser("trajectory", help="ATE and RPE of a TUM trajectory against the true one")
+    t.add_argument("--est", required=True, help="estimated trajectory (TUM)")
+    t.add_argument("--truth", required=True, help="true trajectory (TUM)")
+    t.add_argument("--segment", type=float, default=1.0, help="RPE segment length, m (default 1)")
+    t.add_argument("--json", action="store_true")
+
+    r = sub.add_parser("relations", help="relations metric (Kuemmerle et al. 2009)")
+    r.add_argument("--traj", required=True, help="estimated trajectory (TUM)")
+    r.add_argument("--relations", required=True, help="relations file")
+    r.add_argument("--json", action="store_true")
+    return p
+
+
+def _read_map(path: str):
+    from worlds.mapio import read_map
+
+    try:
+        return read_map(path)
+    except UnicodeDecodeError:
+        raise InputError(f"{path}: not a map description (binary file; expected the map's .yaml)") from None
+    except IsADirectoryError:
+        raise InputError(f"{path}: is a directory, expected a map .yaml") from None
+
+
+def _print(result: dict, as_json: bool, keys: list[str] | None = None) -> None:
+    if as_json:
+        print(to_json(result))
+        return
+    for k in keys or list(result):
+        if k not in result:
+            continue
+        v = result[k]
+        if isinstance(v, float):
+            print(f"{k:24s} {v:.6g}")
+        elif isinstance(v, dict):
+            print(f"{k:24s} " + ", ".join(f"{a}={b:.6g}" if isinstance(b, float) else f"{a}={b}"
+                                           for a, b in v.items()))
+        else:
+            print(f"{k:24s} {v}")
+
+
+def _score(args) -> int:
+    from metrics.score import save_overlay_png, score_map
+
+    est = _read_map(args.map)
+    truth = _read_map(args.truth)
+    if not est.occupied(args.occupied_thresh).any():
+        raise InputError(f"{args.map}: the map has no occupied cell (p >= {args.occupied_thresh}): "
+                         "precision and ADNN undefined")
+    res = score_map(est, truth, align=args.align, initial=args.start, tolerance=args.tolerance,
+                    occupied_thresh=args.occupied_thresh)
+    if args.picture:
+        save_overlay_png(est, truth, res["align"], args.picture, title=args.title,
+                         tolerance=args.tolerance, occupied_thresh=args.occupied_thresh)
+    _print(res, args.json)
+    return 0
+
+
+def _trajectory(args) -> int:
+    from metrics.trajectory import trajectory_error
+    from metrics.tum import read_tum
+
+    et, ep = read_tum(args.est)
+    gt, gp = read_tum(args.truth)
+    _print(trajectory_error(et, ep, gt, gp, segment_m=args.segment), args.json)
+    return 0
+
+
+def _relations(args) -> int:
+    try:
+        from metrics.relations import relations_from_files
+    except ImportError as err:
+        raise InputError(f"relations metric not available: {err}") from None
+    _print(relations_from_files(args.traj, args.relations), args.json)
+    return 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    try:
+        return {"score": _score, "trajectory": _trajectory, "relations": _relations}[args.command](args)
+    except InputError as err:
+        print(f"error: {err}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())

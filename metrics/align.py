@@ -1,0 +1,180 @@
+"""Alignment of an estimated map to the true map: an SE(2) transform estimate -> truth.
+
+Modes:
+- `none`: the identity (the frames are taken as equal).
+- `start`: `initial` as given (for our SLAMs, which start at the true start pose, the identity).
+- `icp`: trimmed point-to-point ICP (Besl & McKay 1992) on occupied-cell centres, started from
+  `initial` (identity when None). Correspondences come from a k-d tree over the true cells and
+  are rejected beyond a distance that shrinks geometrically over the iterations (from
+  `icp_start_cells` to `icp_final_cells`), so extra (false) walls of the estimate do not pull.
+- `global`: no prior. For every rotation on a `rot_step_deg` grid over 360 degrees, the rotated
+  estimate's cells are binned on a coarse grid and cross-correlated (FFT) with a smooth image
+  of the truth, exp(-d^2 / 2 h^2) of the distance d to the nearest true cell; the best
+  translations of the best-scoring rotations are refined by ICP and the candidate with the most
+  inliers wins. Ties between symmetric solutions go to the first found.
+- `auto`: `icp` when `initial` is known, else `global`.
+Maps of any resolution and size are aligned as point sets in metres, so nothing is rejected.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from metrics.trajectory import rigid_fit_2d
+from metrics.truth import PreparedTruth
+from slam.pose import compose, transform_points, wrap_angle
+from worlds.yamlio import InputError
+
+__all__ = ["AlignConfig", "Alignment", "MODES", "align_points", "icp", "global_candidates"]
+
+MODES = ("auto", "none", "start", "icp", "global")
+
+
+@dataclass(frozen=True)
+class AlignConfig:
+    """Alignment parameters; distances in true-map cells."""
+
+    rot_step_deg: float = 1.0         # rotation grid of the global search
+    coarse_cells: float = 3.0         # global search translation cell, in true cells
+    candidates: int = 4               # rotations refined by ICP in the global search
+    icp_max_iter: int = 80
+    icp_start_cells: float = 12.0     # correspondence cut-off at the first iteration
+    icp_final_cells: float = 3.0      # ... shrinking to this
+    icp_shrink: float = 0.8           # factor per iteration
+    icp_tol_cells: float = 0.005      # converged when a step moves every point less than this
+    inlier_cells: float = 1.5         # a point this close to a true cell counts as an inlier
+
+
+@dataclass(frozen=True)
+class Alignment:
+    """pose: (3,) x, y (m), yaw (rad) taking estimate world coordinates to truth world
+    coordinates; mode: the mode actually used; inlier_fraction: share of estimated cells within
+    `inlier_cells` of a true cell after alignment; rms_m: RMS distance of those inliers."""
+
+    pose: np.ndarray
+    mode: str
+    inlier_fraction: float
+    rms_m: float
+    iterations: int = 0
+
+    def as_dict(self) -> dict:
+        return {"x": float(self.pose[0]), "y": float(self.pose[1]), "yaw": float(self.pose[2])}
+
+
+def _fitness(pts: np.ndarray, truth: PreparedTruth, pose: np.ndarray, cut: float) -> tuple[float, float]:
+    d, _ = truth.tree.query(transform_points(pose, pts), distance_upper_bound=cut)
+    inl = np.isfinite(d)
+    if not inl.any():
+        return 0.0, float("nan")
+    return float(inl.mean()), float(np.sqrt(np.mean(d[inl] ** 2)))
+
+
+def icp(pts: np.ndarray, truth: PreparedTruth, initial: np.ndarray,
+        cfg: AlignConfig = AlignConfig()) -> tuple[np.ndarray, int]:
+    """Trimmed point-to-point ICP of estimated cell centres onto the true ones.
+
+    pts: (N, 2) estimate occupied-cell centres, estimate world m; initial: (3,) start transform.
+    Returns (pose (3,), iterations used).
+    """
+    res = truth.resolution
+    pose = np.asarray(initial, dtype=np.float64).copy()
+    if len(pts) < 3:
+        return pose, 0
+    radius = max(float(np.max(np.linalg.norm(pts - pts.mean(0), axis=1))), res)
+    cut = cfg.icp_start_cells * res
+    final = cfg.icp_final_cells * res
+    it = 0
+    for it in range(1, cfg.icp_max_iter + 1):
+        moved = transform_points(pose, pts)
+        d, idx = truth.tree.query(moved, distance_upper_bound=cut)
+        inl = np.isfinite(d)
+        if inl.sum() < 3:
+            break
+        step = rigid_fit_2d(moved[inl], truth.points[idx[inl]])
+        pose = compose(step, pose)
+        shift = np.hypot(step[0], step[1]) + abs(step[2]) * radius
+        at_final = cut <= final
+        cut = max(final, cut * cfg.icp_shrink)
+        if at_final and shift < cfg.icp_tol_cells * res:
+            break
+    return pose, it
+
+
+def global_candidates(pts: np.ndarray, truth: PreparedTruth,
+                      cfg: AlignConfig = AlignConfig()) -> list[np.ndarray]:
+    """Coarse exhaustive search: the best pose (3,) of each of the `cfg.candidates` best rotations.
+
+    pts: (N, 2) estimate occupied-cell centres (m). Rotations are local maxima of the
+    correlation score over the rotation grid, best first.
+    """
+    h = cfg.coarse_cells * truth.resolution
+    score_img, lo = truth.coarse_score(h)
+    ht, wt = score_img.shape
+    centre = pts.mean(0)
+    q0 = pts - centre
+    reach = float(np.max(np.linalg.norm(q0, axis=1))) + h
+    k = int(np.ceil(2 * reach / h)) + 1
+    shape = (ht + k - 1, wt + k - 1)
+    spec = truth.spectrum(h, shape)
+    angles = np.deg2rad(np.arange(0.0, 360.0, cfg.rot_step_deg))
+    best = np.empty(len(angles))
+    shifts = np.empty((len(angles), 2), dtype=np.int64)
+    for a_i, a in enumerate(angles):
+        c, s = np.cos(a), np.sin(a)
+        q = np.stack([c * q0[:, 0] - s * q0[:, 1], s * q0[:, 0] + c * q0[:, 1]], axis=1)
+        cells = np.floor((q + reach) / h).astype(np.int64)
+        np.clip(cells, 0, k - 1, out=cells)
+        img = np.bincount(cells[:, 1] * k + cells[:, 0], minlength=k * k).reshape(k, k)
+        # full cross-correlation: corr[m] = sum_x img[x] score[x + m - (k - 1)]
+        corr = np.fft.irfft2(spec * np.fft.rfft2(img[::-1, ::-1], s=shape), s=shape)
+        flat = int(np.argmax(corr))
+        best[a_i] = corr.flat[flat]
+        shifts[a_i] = np.unravel_index(flat, shape)
+    # local maxima over the circular rotation grid, best first
+    n = len(angles)
+    peaks = [i for i in range(n) if best[i] >= best[(i - 1) % n] and best[i] >= best[(i + 1) % n]]
+    peaks.sort(key=lambda i: -best[i])
+    out = []
+    for i in peaks[: cfg.candidates]:
+        a = angles[i]
+        sr, sc = shifts[i] - (k - 1)
+        # canvas cell (r, c) lands on coarse truth cell (r + sr, c + sc): t = lo + s h + reach
+        t = lo + np.array([sc, sr]) * h + reach
+        c, s = np.cos(a), np.sin(a)
+        rc = np.array([c * centre[0] - s * centre[1], s * centre[0] + c * centre[1]])
+        out.append(np.array([t[0] - rc[0], t[1] - rc[1], wrap_angle(a)]))
+    return out
+
+
+def align_points(pts: np.ndarray, truth: PreparedTruth, mode: str = "auto",
+                 initial=(0.0, 0.0, 0.0), cfg: AlignConfig = AlignConfig()) -> Alignment:
+    """Transform (estimate -> truth) of estimated occupied cell centres `pts` (N, 2) world m.
+
+    mode: one of MODES; initial: (3,) prior transform or None (unknown). With fewer than 3
+    points the prior (or identity) is returned unrefined.
+    """
+    if mode not in MODES:
+        raise InputError(f"align: unknown mode {mode!r} (choose from {', '.join(MODES)})")
+    prior = None if initial is None else np.asarray(initial, dtype=np.float64).reshape(3)
+    if mode == "auto":
+        mode = "icp" if prior is not None else "global"
+    if mode == "start" and prior is None:
+        raise InputError("align: mode 'start' needs a start pose (initial)")
+    cut = cfg.inlier_cells * truth.resolution
+    if mode == "none" or len(pts) < 3:
+        pose = np.zeros(3) if (mode == "none" or prior is None) else prior
+        return Alignment(pose, mode, *_fitness(pts, truth, pose, cut))
+    if mode == "start":
+        return Alignment(prior.copy(), mode, *_fitness(pts, truth, prior, cut))
+    if mode == "icp":
+        pose, it = icp(pts, truth, np.zeros(3) if prior is None else prior, cfg)
+        return Alignment(pose, mode, *_fitness(pts, truth, pose, cut), iterations=it)
+    best = None
+    for cand in global_candidates(pts, truth, cfg):
+        pose, it = icp(pts, truth, cand, cfg)
+        frac, rms = _fitness(pts, truth, pose, cut)
+        key = (round(frac, 6), -rms if np.isfinite(rms) else -np.inf)
+        if best is None or key > best[0]:
+            best = (key, Alignment(pose, "global", frac, rms, iterations=it))
+    return best[1]

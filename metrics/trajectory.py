@@ -1,0 +1,111 @@
+"""Trajectory error against a true path: ATE and RPE (Sturm et al. 2012, TUM RGB-D benchmark).
+
+ATE: RMSE of position after the least-squares rigid SE(2) alignment of the estimate to the
+truth (Umeyama 1991 / Kabsch, no scale), at the estimate's times with the truth linearly
+interpolated there. `ate_start_m` is the same RMSE with the frames as given: our SLAMs start at
+the true start pose, so this is the error under the start-pose alignment.
+RPE: over pairs (i, j) where the true path length from i to j first reaches `segment_m`
+(default 1 m), the error of the estimated relative motion against the true one, translation
+(m) and rotation (rad), mean and RMSE. RPE needs no alignment.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from slam.pose import compose, interpolate_poses, relative, wrap_angle
+from worlds.yamlio import InputError
+
+__all__ = ["rigid_fit_2d", "trajectory_error"]
+
+
+def rigid_fit_2d(src: np.ndarray, dst: np.ndarray, weights: np.ndarray | None = None) -> np.ndarray:
+    """Least-squares rigid transform (no scale) taking src onto dst (2D Kabsch/Umeyama).
+
+    src, dst: (N, 2) corresponding points (m), N >= 1; weights: (N,) >= 0 or None.
+    Returns the pose (3,) x, y, yaw with transform_points(pose, src) ~ dst.
+    """
+    src = np.asarray(src, dtype=np.float64).reshape(-1, 2)
+    dst = np.asarray(dst, dtype=np.float64).reshape(-1, 2)
+    w = np.ones(len(src)) if weights is None else np.asarray(weights, dtype=np.float64)
+    wsum = w.sum()
+    if len(src) == 0 or wsum <= 0:
+        return np.zeros(3)
+    cs = (w[:, None] * src).sum(0) / wsum
+    cd = (w[:, None] * dst).sum(0) / wsum
+    a = src - cs
+    b = dst - cd
+    # the 2D cross-covariance reduces to one angle: atan2(sum w a x b, sum w a . b)
+    sxy = np.sum(w * (a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]))
+    sxx = np.sum(w * (a[:, 0] * b[:, 0] + a[:, 1] * b[:, 1]))
+    yaw = np.arctan2(sxy, sxx)
+    c, s = np.cos(yaw), np.sin(yaw)
+    t = cd - np.array([c * cs[0] - s * cs[1], s * cs[0] + c * cs[1]])
+    return np.array([t[0], t[1], wrap_angle(yaw)])
+
+
+def _rmse(v: np.ndarray) -> float:
+    return float(np.sqrt(np.mean(np.square(v)))) if len(v) else float("nan")
+
+
+def _check(t: np.ndarray, poses: np.ndarray, name: str) -> tuple[np.ndarray, np.ndarray]:
+    t = np.asarray(t, dtype=np.float64).reshape(-1)
+    poses = np.asarray(poses, dtype=np.float64)
+    if poses.ndim != 2 or poses.shape[1] != 3 or len(poses) != len(t):
+        raise InputError(f"{name}: expected (N,) times and (N, 3) poses, got {t.shape} and {poses.shape}")
+    if len(t) == 0:
+        raise InputError(f"{name}: empty trajectory")
+    if not (np.all(np.isfinite(t)) and np.all(np.isfinite(poses))):
+        raise InputError(f"{name}: non-finite values")
+    order = np.argsort(t, kind="stable")
+    t, poses = t[order], poses[order]
+    if np.any(np.diff(t) <= 0):
+        raise InputError(f"{name}: repeated timestamps")
+    return t, poses
+
+
+def trajectory_error(est_t: np.ndarray, est_poses: np.ndarray, gt_t: np.ndarray,
+                     gt_poses: np.ndarray, segment_m: float = 1.0) -> dict:
+    """ATE and RPE of an estimated trajectory against the true one.
+
+    est_t: (N,) s, est_poses: (N, 3) x, y (m), yaw (rad); gt_t: (M,) s, gt_poses: (M, 3).
+    Estimated poses outside the true time span are dropped (no extrapolation).
+    Returns a dict: ate_m (RMSE after SE(2) alignment), ate_start_m (frames as given),
+    ate_yaw_rad (RMSE of heading after alignment), ate_align {"x","y","yaw"} (estimate ->
+    truth), rpe_trans_m / rpe_rot_rad (mean over `segment_m` segments), rpe_trans_rmse_m,
+    rpe_rot_rmse_rad, rpe_pairs, n_poses, segment_m and, when something is undefined, `note`.
+    Raises InputError when fewer than 2 estimated poses fall inside the true time span.
+    """
+    est_t, est_poses = _check(est_t, est_poses, "estimated trajectory")
+    gt_t, gt_poses = _check(gt_t, gt_poses, "true trajectory")
+    inside = (est_t >= gt_t[0]) & (est_t <= gt_t[-1])
+    if inside.sum() < 2:
+        raise InputError(f"estimated trajectory: {int(inside.sum())} poses inside the true time span "
+                         f"[{gt_t[0]:.3f}, {gt_t[-1]:.3f}] s; need at least 2 (time bases differ?)")
+    est_t, est = est_t[inside], est_poses[inside]
+    gt = interpolate_poses(est_t, gt_t, gt_poses)
+
+    ate_start = _rmse(np.linalg.norm(est[:, :2] - gt[:, :2], axis=1))
+    fit = rigid_fit_2d(est[:, :2], gt[:, :2])
+    aligned = compose(fit, est)
+    ate = _rmse(np.linalg.norm(aligned[:, :2] - gt[:, :2], axis=1))
+    ate_yaw = _rmse(wrap_angle(aligned[:, 2] - gt[:, 2]))
+
+    # segment pairs by true path length: j is the first pose at least segment_m past i
+    dist = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(gt[:, :2], axis=0), axis=1))])
+    j = np.searchsorted(dist, dist + segment_m, side="left")
+    i = np.nonzero(j < len(dist))[0]
+    j = j[i]
+    out = {"ate_m": ate, "ate_start_m": ate_start, "ate_yaw_rad": ate_yaw,
+           "ate_align": {"x": float(fit[0]), "y": float(fit[1]), "yaw": float(fit[2])},
+           "n_poses": int(len(est_t)), "segment_m": float(segment_m), "rpe_pairs": int(len(i))}
+    if len(i):
+        err = relative(relative(gt[i], gt[j]), relative(est[i], est[j]))
+        et = np.linalg.norm(err[:, :2], axis=1)
+        er = np.abs(err[:, 2])
+        out.update(rpe_trans_m=float(et.mean()), rpe_rot_rad=float(er.mean()),
+                   rpe_trans_rmse_m=_rmse(et), rpe_rot_rmse_rad=_rmse(er))
+    else:
+        out.update(rpe_trans_m=float("nan"), rpe_rot_rad=float("nan"),
+                   rpe_trans_rmse_m=float("nan"), rpe_rot_rmse_rad=float("nan"),
+                   note=f"true path shorter than {segment_m} m: RPE undefined (NaN)")
+    return out

@@ -1,0 +1,77 @@
+"""TUM trajectory text files (`t x y z qx qy qz qw`, one pose a line), as read by evo.
+
+A 2D pose (x, y, yaw) is stored with z = 0 and the quaternion of a rotation about z;
+reading takes the yaw out of any unit quaternion (roll and pitch are ignored).
+"""
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import numpy as np
+
+from worlds.yamlio import InputError, atomic_write_text
+
+__all__ = ["read_tum", "write_tum", "yaw_from_quaternion"]
+
+
+def yaw_from_quaternion(qx, qy, qz, qw):
+    """Yaw (rad, rotation about z) of quaternion(s) (x, y, z, w); arrays broadcast."""
+    qx, qy, qz, qw = (np.asarray(q, dtype=np.float64) for q in (qx, qy, qz, qw))
+    return np.arctan2(2.0 * (qw * qz + qx * qy), 1.0 - 2.0 * (qy * qy + qz * qz))
+
+
+def read_tum(path: str | os.PathLike) -> tuple[np.ndarray, np.ndarray]:
+    """Read a TUM trajectory file.
+
+    Returns (t, poses): t (N,) seconds, poses (N, 3) x, y (m), yaw (rad), sorted by time.
+    Blank lines and lines starting with '#' are skipped. A missing file, a line without
+    8 numbers, a zero quaternion, repeated times or an empty file raise InputError naming
+    the file and line.
+    """
+    p = Path(path)
+    try:
+        text = p.read_text()
+    except FileNotFoundError:
+        raise InputError(f"{p}: file not found") from None
+    except (OSError, UnicodeDecodeError) as err:
+        raise InputError(f"{p}: cannot read as text: {err}") from None
+    rows = []
+    for lineno, line in enumerate(text.splitlines(), start=1):
+        s = line.strip()
+        if not s or s.startswith("#"):
+            continue
+        parts = s.replace(",", " ").split()
+        if len(parts) != 8:
+            raise InputError(f"{p}: line {lineno}: expected 8 numbers 't x y z qx qy qz qw', "
+                             f"got {len(parts)} fields")
+        try:
+            vals = [float(v) for v in parts]
+        except ValueError:
+            raise InputError(f"{p}: line {lineno}: not a number in {s[:60]!r}") from None
+        if not np.all(np.isfinite(vals)):
+            raise InputError(f"{p}: line {lineno}: non-finite value")
+        if np.hypot(np.hypot(vals[4], vals[5]), np.hypot(vals[6], vals[7])) < 1e-9:
+            raise InputError(f"{p}: line {lineno}: zero quaternion")
+        rows.append(vals)
+    if not rows:
+        raise InputError(f"{p}: no poses (not a TUM trajectory file?)")
+    a = np.array(rows)
+    order = np.argsort(a[:, 0], kind="stable")
+    a = a[order]
+    if np.any(np.diff(a[:, 0]) <= 0):
+        raise InputError(f"{p}: repeated timestamps")
+    yaw = yaw_from_quaternion(a[:, 4], a[:, 5], a[:, 6], a[:, 7])
+    return a[:, 0].copy(), np.stack([a[:, 1], a[:, 2], yaw], axis=1)
+
+
+def write_tum(path: str | os.PathLike, t: np.ndarray, poses: np.ndarray) -> None:
+    """Write (N,) times (s) and (N, 3) poses x, y, yaw as a TUM file (z = 0, rotation about z)."""
+    t = np.asarray(t, dtype=np.float64).reshape(-1)
+    poses = np.asarray(poses, dtype=np.float64).reshape(-1, 3)
+    if len(t) != len(poses):
+        raise ValueError(f"write_tum: {len(t)} times but {len(poses)} poses")
+    half = poses[:, 2] / 2.0
+    lines = [f"{ti:.9f} {x:.9g} {y:.9g} 0 0 0 {np.sin(h):.12g} {np.cos(h):.12g}"
+             for ti, (x, y, _), h in zip(t, poses, half)]
+    atomic_write_text(path, "\n".join(lines) + "\n")
