@@ -1,0 +1,135 @@
+"""Pure-pursuit route following (Coulter 1992) with a ramped forward speed.
+
+The path is the start position followed by the route waypoints. Each control step the
+robot aims at the point `lookahead` metres of arc length ahead of its progress along
+the path, with curvature 2 sin(alpha) / L. The forward speed ramps up at `accel`, is
+lowered so the turn rate stays <= max_turn_rate (0.7 rad/s in the reference study) and
+near the end of the route, and drops to zero for a turn in place when the heading error
+exceeds `turn_in_place`. Progress only moves forward (within a window), so a path that
+passes near itself (a spiral) is followed in order.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = ["ControllerConfig", "PurePursuit"]
+
+
+@dataclass(frozen=True)
+class ControllerConfig:
+    lookahead: float = 0.35        # m
+    max_linear: float = 0.22       # m/s
+    max_turn_rate: float = 0.7     # rad/s (reference study)
+    accel: float = 0.1             # m/s^2, forward-speed ramp
+    decel: float = 0.3             # m/s^2, braking (and for the final approach)
+    turn_in_place: float = 1.0     # rad heading error above which the robot turns on the spot
+    turn_gain: float = 1.5         # 1/s, turn rate per rad of heading error when turning in place
+    goal_tolerance: float = 0.05   # m
+    stuck_timeout: float = 20.0    # s without 5 cm of progress ends the run
+    search_window: float = 1.0     # m of arc length ahead searched for the closest point
+
+    def __post_init__(self):
+        for n in ("lookahead", "max_linear", "max_turn_rate", "accel", "decel", "turn_gain",
+                  "goal_tolerance", "stuck_timeout", "search_window"):
+            if getattr(self, n) <= 0:
+                raise ValueError(f"{n} must be > 0")
+
+
+class PurePursuit:
+    """command(x, y, yaw, t, dt) -> (v, w); `done` once the end is reached or stuck
+    (`stuck` tells which)."""
+
+    def __init__(self, path_xy: np.ndarray, cfg: ControllerConfig):
+        path = np.asarray(path_xy, dtype=np.float64).reshape(-1, 2)
+        keep = np.ones(len(path), bool)
+        keep[1:] = np.linalg.norm(np.diff(path, axis=0), axis=1) > 1e-9
+        path = path[keep]
+        if len(path) < 2:
+            raise ValueError("a route needs at least one waypoint away from the start")
+        self.cfg = cfg
+        self.path = path
+        seg = np.diff(path, axis=0)
+        self.seg_len = np.linalg.norm(seg, axis=1)
+        self.cum = np.concatenate([[0.0], np.cumsum(self.seg_len)])
+        self.length = float(self.cum[-1])
+        self.s = 0.0            # progress (arc length of the closest point)
+        self.v = 0.0
+        self.done = False
+        self.stuck = False
+        self._best_s = 0.0
+        self._best_t = 0.0
+
+    def _point_at(self, s: float) -> tuple[float, float]:
+        s = min(max(s, 0.0), self.length)
+        i = min(int(np.searchsorted(self.cum, s, side="right")) - 1, len(self.seg_len) - 1)
+        f = (s - self.cum[i]) / self.seg_len[i]
+        p0, p1 = self.path[i], self.path[i + 1]
+        return p0[0] + f * (p1[0] - p0[0]), p0[1] + f * (p1[1] - p0[1])
+
+    def _progress(self, x: float, y: float) -> float:
+        """Arc length of the closest path point within [s, s + search_window]."""
+        lo = max(int(np.searchsorted(self.cum, self.s, side="right")) - 1, 0)
+        hi = int(np.searchsorted(self.cum, self.s + self.cfg.search_window, side="right"))
+        p0 = self.path[lo:hi]
+        seg = self.path[lo + 1:hi + 1] - p0
+        n = len(seg)
+        seg_len = self.seg_len[lo:lo + n]
+        f = np.clip(((x - p0[:n, 0]) * seg[:, 0] + (y - p0[:n, 1]) * seg[:, 1]) / seg_len ** 2, 0, 1)
+        d2 = (p0[:n, 0] + f * seg[:, 0] - x) ** 2 + (p0[:n, 1] + f * seg[:, 1] - y) ** 2
+        s_cand = self.cum[lo:lo + n] + f * seg_len
+        s_cand = np.minimum(s_cand, self.s + self.cfg.search_window)
+        ok = s_cand >= self.s
+        if not ok.any():
+            return self.s
+        k = int(np.argmin(np.where(ok, d2, np.inf)))
+        return float(s_cand[k])
+
+    def command(self, x: float, y: float, yaw: float, t: float, dt: float) -> tuple[float, float]:
+        """Twist (v m/s, w rad/s) for the robot at (x, y, yaw) at time t; dt: control period."""
+        cfg = self.cfg
+        if self.done:
+            self.v = 0.0
+            return 0.0, 0.0
+        self.s = self._progress(x, y)
+        if self.s > self._best_s + 0.05:
+            self._best_s, self._best_t = self.s, t
+        elif t - self._best_t > cfg.stuck_timeout:
+            self.done = self.stuck = True
+            self.v = 0.0
+            return 0.0, 0.0
+        end = self.path[-1]
+        to_end = math.hypot(end[0] - x, end[1] - y)
+        remaining = self.length - self.s
+        if remaining < cfg.lookahead and to_end < cfg.goal_tolerance:
+            self.done = True
+            self.v = 0.0
+            return 0.0, 0.0
+        tx, ty = self._point_at(self.s + cfg.lookahead)
+        dx, dy = tx - x, ty - y
+        dist = math.hypot(dx, dy)
+        alpha = math.atan2(dy, dx) - yaw
+        alpha = math.atan2(math.sin(alpha), math.cos(alpha))
+        if abs(alpha) > cfg.turn_in_place:
+            # brake first, then turn on the spot
+            self.v = max(0.0, self.v - cfg.decel * dt)
+            w = max(-cfg.max_turn_rate, min(cfg.max_turn_rate, cfg.turn_gain * alpha))
+            return self.v, (w if self.v == 0.0 else 0.0)
+        curvature = 2.0 * math.sin(alpha) / max(dist, 1e-6)
+        v_target = cfg.max_linear
+        if abs(curvature) > 1e-9:
+            v_target = min(v_target, cfg.max_turn_rate / abs(curvature))
+        # stop at the end of the route: v <= sqrt(2 a d)
+        v_target = min(v_target, math.sqrt(2.0 * cfg.decel * max(min(to_end, remaining + to_end), 0.0)))
+        if v_target > self.v:
+            self.v = min(v_target, self.v + cfg.accel * dt)
+        else:
+            self.v = max(v_target, self.v - cfg.decel * dt)
+        w = self.v * curvature
+        if self.v < 0.02 and abs(alpha) > 0.1:
+            # too slow for pure pursuit to turn: rotate towards the target meanwhile
+            w = cfg.turn_gain * alpha
+        w = max(-cfg.max_turn_rate, min(cfg.max_turn_rate, w))
+        return self.v, w
