@@ -2,9 +2,10 @@
 from worlds.grid import FREE_THRESH, OCCUPIED_THRESH, Grid
 from worlds.load import list_worlds, load_world
 from worlds.mapio import read_map, write_map
+from worlds.raster import rasterize
 from worlds.model import ROBOT_RADIUS, Obstacle, Wall, World
 from worlds.yamlio import InputError, from_dict, load_yaml
 
 __all__ = ["Grid", "World", "Wall", "Obstacle", "ROBOT_RADIUS", "InputError", "from_dict",
            "load_yaml", "OCCUPIED_THRESH", "FREE_THRESH", "load_world", "list_worlds", "read_map",
-           "write_map"]
+           "write_map", "rasterize"]
