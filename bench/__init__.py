@@ -1,1 +1,15 @@
-"""bench package (being built)."""
+"""The benchmark: worlds x algorithms x repeats -> results.json, summary tables, figures.
+
+Python API (each is what a `python -m bench` command calls):
+  run_benchmark(RunSpec(...), out_dir, jobs=None, scheduler=None, resume=False) -> RunOutcome
+  write_report(out_dir) -> Path of summary.md
+  regress(baseline=None, update=False, ...) -> exit code
+"""
+from bench.plan import RunSpec, Task
+from bench.regress import regress
+from bench.report import write_report
+from bench.results import comparable, read_rows
+from bench.runner import RunOutcome, run_benchmark
+
+__all__ = ["RunSpec", "Task", "run_benchmark", "RunOutcome", "write_report", "regress",
+           "read_rows", "comparable"]

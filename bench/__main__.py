@@ -1,0 +1,132 @@
+"""python -m bench run | report | regress  (a thin CLI over bench's Python API)."""
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+from pathlib import Path
+
+from worlds.yamlio import InputError
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="python -m bench", description=__doc__)
+    sub = p.add_subparsers(dest="command", required=True)
+
+    r = sub.add_parser("run", help="run worlds x algorithms x repeats, write results and report")
+    r.add_argument("--world", help="world name(s) or YAML file(s), comma-separated, or 'all'")
+    r.add_argument("--repeats", type=int, help="runs per world and algorithm (default 10)")
+    r.add_argument("--algo", help="comma-separated algorithms (default: all registered)")
+    r.add_argument("--noise", help="sensor-noise profile name or YAML (default realistic)")
+    r.add_argument("--seed", type=int, help="base seed (default 0)")
+    r.add_argument("--vary", choices=["slam", "data", "both"],
+                   help="what changes between repeats: SLAM seed (default, as the study), "
+                        "sensor-noise seed, or both")
+    r.add_argument("--config", action="append", metavar="ALGO=YAML",
+                   help="config file of one algorithm (repeatable)")
+    r.add_argument("--jobs", type=int, default=None, help="worker processes (default: all cores)")
+    r.add_argument("--out", help="output directory (default runs/<UTC timestamp>)")
+    r.add_argument("--resume", metavar="DIR", help="complete the run in DIR (same seeds)")
+    r.add_argument("--scheduler", metavar="ADDRESS",
+                   help="Dask scheduler address (tcp://host:8786, or 'local'); needs .[dask]")
+    r.add_argument("--no-progress", action="store_true", help="no progress output")
+    r.add_argument("--no-figures", action="store_true", help="tables only")
+
+    rep = sub.add_parser("report", help="rebuild summary.md/.csv and figures from results.json")
+    rep.add_argument("dir")
+    rep.add_argument("--no-figures", action="store_true")
+
+    g = sub.add_parser("regress", help="rerun a small fixed matrix and compare with a baseline")
+    g.add_argument("--baseline", help="baseline JSON (default: bench/baseline.json)")
+    g.add_argument("--update", action="store_true", help="write the baseline instead")
+    g.add_argument("--world", help="worlds of the matrix (default: the baseline's)")
+    g.add_argument("--algo", help="algorithms of the matrix (default: the baseline's)")
+    g.add_argument("--repeats", type=int, help="repeats (default: the baseline's)")
+    g.add_argument("--jobs", type=int, default=None)
+    g.add_argument("--out", help="keep the regression run in this directory")
+    return p
+
+
+def _spec_from_args(args):
+    from bench.plan import RunSpec, parse_configs, parse_worlds, resolve_algos
+    from bench.runner import read_run
+    if args.resume:
+        stored = RunSpec.from_json(read_run(Path(args.resume))["spec"])
+        if args.world is None and args.algo is None and args.repeats is None and args.seed is None \
+                and args.noise is None and args.vary is None and not args.config:
+            return stored
+        base = stored
+    else:
+        if not args.world:
+            raise InputError("run: --world is required (a name, a YAML file, a list or 'all')")
+        base = None
+    algos = resolve_algos(args.algo) if args.algo is not None or base is None else list(base.algos)
+    return RunSpec(
+        worlds=tuple(parse_worlds(args.world)) if args.world else base.worlds,
+        algos=tuple(algos),
+        repeats=args.repeats if args.repeats is not None else (base.repeats if base else 10),
+        noise=args.noise or (base.noise if base else "realistic"),
+        seed=args.seed if args.seed is not None else (base.seed if base else 0),
+        vary=args.vary or (base.vary if base else "slam"),
+        configs=parse_configs(args.config, algos) if args.config else (base.configs if base else {}),
+    )
+
+
+def cmd_run(args, argv) -> int:
+    from bench.report import write_report
+    from bench.runner import default_out_dir, print_outcome, run_benchmark
+    if args.repeats is not None and args.repeats < 1:
+        raise InputError(f"--repeats must be >= 1, got {args.repeats}")
+    if args.jobs is not None and args.jobs < 1:
+        raise InputError(f"--jobs must be >= 1, got {args.jobs}")
+    if args.resume and args.out and Path(args.out) != Path(args.resume):
+        raise InputError("give either --resume DIR or --out DIR, not both")
+    spec = _spec_from_args(args)
+    out_dir = Path(args.resume or args.out or default_out_dir())
+    outcome = run_benchmark(spec, out_dir, jobs=args.jobs, scheduler=args.scheduler,
+                            resume=bool(args.resume), progress=not args.no_progress, argv=argv)
+    print_outcome(outcome)
+    if outcome.interrupted:
+        return 130
+    if outcome.crashed:
+        return 1
+    md = write_report(out_dir, figures=not args.no_figures)
+    print(f"report: {md}")
+    return 0
+
+
+def cmd_report(args) -> int:
+    from bench.report import write_report
+    md = write_report(args.dir, figures=not args.no_figures)
+    print(f"report: {md}")
+    return 0
+
+
+def cmd_regress(args) -> int:
+    from bench.plan import parse_worlds, resolve_algos
+    from bench.regress import regress
+    return regress(args.baseline, update=args.update,
+                   worlds=parse_worlds(args.world) if args.world else None,
+                   algos=resolve_algos(args.algo) if args.algo else None,
+                   repeats=args.repeats, jobs=args.jobs, out=args.out)
+
+
+def main(argv: list[str] | None = None) -> int:
+    argv = list(sys.argv[1:] if argv is None else argv)
+    args = build_parser().parse_args(argv)
+    try:
+        if args.command == "run":
+            return cmd_run(args, argv)
+        if args.command == "report":
+            return cmd_report(args)
+        return cmd_regress(args)
+    except InputError as err:
+        print(f"error: {err}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())

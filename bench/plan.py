@@ -1,0 +1,211 @@
+"""What a benchmark run does: the run spec (worlds x algorithms x repeats), its seeds and tasks.
+
+The reference study recorded one sensor log per world and ran each SLAM 10 times on it with
+different seeds (`vary="slam"`, the default). `vary="data"` re-records the log with a new
+sensor seed each repeat (same SLAM seed); `vary="both"` changes both.
+
+Seeds, for base seed S and repeat r (0-based):
+  vary=slam: log seed S,     slam seed S + r
+  vary=data: log seed S + r, slam seed S
+  vary=both: log seed S + r, slam seed S + r
+"""
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from worlds.yamlio import InputError, to_dict
+
+__all__ = ["RunSpec", "Task", "VARY", "parse_worlds", "resolve_algos", "load_plugins",
+           "parse_configs", "seeds_for", "make_tasks", "ENTRY_POINT_GROUP"]
+
+VARY = ("slam", "data", "both")
+# third-party algorithms register themselves when bench loads this entry-point group
+ENTRY_POINT_GROUP = "slam_bench.algorithms"
+
+
+@dataclass(frozen=True)
+class RunSpec:
+    """The arguments that decide a run's rows (not how fast they are computed).
+
+    worlds: world names or YAML paths; algos: registered algorithm names; repeats >= 1;
+    noise: sensor-noise profile name or YAML path; seed: base seed; vary: slam|data|both;
+    configs: algo -> config YAML path (absent: the algorithm's defaults).
+    """
+
+    worlds: tuple[str, ...]
+    algos: tuple[str, ...]
+    repeats: int = 10
+    noise: str = "realistic"
+    seed: int = 0
+    vary: str = "slam"
+    configs: dict = field(default_factory=dict)
+
+    def __post_init__(self):
+        if isinstance(self.repeats, bool) or not isinstance(self.repeats, int) or self.repeats < 1:
+            raise InputError(f"--repeats must be an integer >= 1, got {self.repeats!r}")
+        if self.vary not in VARY:
+            raise InputError(f"--vary must be one of {', '.join(VARY)}, got {self.vary!r}")
+        if not self.worlds:
+            raise InputError("no world given")
+        if not self.algos:
+            raise InputError("no algorithm given")
+        object.__setattr__(self, "worlds", tuple(self.worlds))
+        object.__setattr__(self, "algos", tuple(self.algos))
+        object.__setattr__(self, "configs", dict(self.configs))
+
+    def to_json(self) -> dict:
+        return {f.name: (list(v) if isinstance(v := getattr(self, f.name), tuple) else v)
+                for f in dataclasses.fields(self)}
+
+    @classmethod
+    def from_json(cls, data: dict) -> "RunSpec":
+        return cls(**{f.name: data[f.name] for f in dataclasses.fields(cls) if f.name in data})
+
+
+@dataclass(frozen=True)
+class Task:
+    """One SLAM run: `algo` on world `world` (key of the world table), repeat `repeat`."""
+
+    world: str
+    algo: str
+    repeat: int
+    log_seed: int
+    slam_seed: int
+
+    @property
+    def key(self) -> tuple[str, str, int]:
+        return (self.world, self.algo, self.repeat)
+
+    @property
+    def label(self) -> str:
+        return f"{self.world}/{self.algo}/{self.repeat}"
+
+
+def seeds_for(vary: str, seed: int, repeat: int) -> tuple[int, int]:
+    """(log seed, slam seed) of repeat `repeat` (see the module docstring)."""
+    if vary == "slam":
+        return seed, seed + repeat
+    if vary == "data":
+        return seed + repeat, seed
+    if vary == "both":
+        return seed + repeat, seed + repeat
+    raise InputError(f"--vary must be one of {', '.join(VARY)}, got {vary!r}")
+
+
+def make_tasks(spec: RunSpec, world_keys: list[str] | None = None) -> list[Task]:
+    """All tasks of `spec`, repeat-major so early rows cover every world and algorithm.
+
+    world_keys: the keys under which each world of spec.worlds is stored (default: as given).
+    """
+    keys = list(world_keys) if world_keys is not None else list(spec.worlds)
+    tasks = []
+    for r in range(spec.repeats):
+        log_seed, slam_seed = seeds_for(spec.vary, spec.seed, r)
+        for w in keys:
+            for a in spec.algos:
+                tasks.append(Task(w, a, r, log_seed, slam_seed))
+    return tasks
+
+
+def parse_worlds(text: str) -> list[str]:
+    """'all' | 'NAME|FILE[,NAME|FILE...]' -> list of world names / paths (not loaded yet)."""
+    if text is None or not str(text).strip():
+        raise InputError("--world is empty")
+    items = [t.strip() for t in str(text).split(",") if t.strip()]
+    if items == ["all"]:
+        import worlds
+        names = list(worlds.list_worlds())
+        if not names:
+            raise InputError("--world all: no worlds are installed")
+        return names
+    seen = []
+    for it in items:
+        if it not in seen:
+            seen.append(it)
+    return seen
+
+
+def load_plugins() -> list[str]:
+    """Import the built-in algorithms and every `slam_bench.algorithms` entry point.
+
+    Returns the names of the entry points loaded. A plugin that fails to import raises
+    InputError naming it.
+    """
+    from slam.base import _ensure_builtin_algorithms
+    _ensure_builtin_algorithms()
+    loaded = []
+    try:
+        from importlib.metadata import entry_points
+        eps = entry_points(group=ENTRY_POINT_GROUP)
+    except Exception:  # very old importlib.metadata: no plugins
+        eps = []
+    for ep in eps:
+        try:
+            obj = ep.load()
+        except Exception as err:
+            raise InputError(f"algorithm plugin '{ep.name}' ({ep.value}) failed to load: {err}") from None
+        # an entry point may name a module (registers on import) or a class to register
+        if isinstance(obj, type) and not getattr(obj, "algo_name", None):
+            from slam.base import register
+            register(ep.name)(obj)
+        loaded.append(ep.name)
+    return loaded
+
+
+def resolve_algos(text: str | None) -> list[str]:
+    """'pf,gn' -> checked names; None/'all' -> every registered algorithm (built-ins first)."""
+    load_plugins()
+    from slam.base import ALGORITHMS
+    known = list(ALGORITHMS)
+    order = [a for a in ("pf", "gn", "graph", "oracle") if a in known] + \
+        sorted(a for a in known if a not in ("pf", "gn", "graph", "oracle"))
+    if text is None or str(text).strip() in ("", "all"):
+        if not order:
+            raise InputError("no SLAM algorithm is registered")
+        return order
+    names = []
+    for a in str(text).split(","):
+        a = a.strip()
+        if not a:
+            continue
+        if a not in ALGORITHMS:
+            raise InputError(f"unknown algorithm '{a}' (known: {', '.join(order) or 'none'})")
+        if a not in names:
+            names.append(a)
+    if not names:
+        raise InputError("--algo is empty")
+    return names
+
+
+def parse_configs(items: list[str] | None, algos: list[str]) -> dict[str, str]:
+    """['pf=pf.yaml', ...] -> {'pf': 'pf.yaml'}, each file checked against the algorithm's config."""
+    out: dict[str, str] = {}
+    for item in items or []:
+        if "=" not in item:
+            raise InputError(f"--config expects ALGO=YAML, got '{item}'")
+        algo, path = item.split("=", 1)
+        algo = algo.strip()
+        if algo not in algos:
+            raise InputError(f"--config {item}: algorithm '{algo}' is not in this run "
+                             f"({', '.join(algos)})")
+        p = Path(path).expanduser()
+        if not p.is_file():
+            raise InputError(f"--config {item}: {p}: file not found")
+        load_config_checked(algo, str(p.resolve()))
+        out[algo] = str(p.resolve())
+    return out
+
+
+def load_config_checked(algo: str, path: str | None) -> Any:
+    """The config dataclass of `algo` from `path` (None: defaults); InputError on a bad file."""
+    from slam.base import load_config
+    return load_config(algo, path)
+
+
+def config_dict(algo: str, path: str | None) -> dict:
+    """The effective config of `algo` as plain data (for run.json)."""
+    return to_dict(load_config_checked(algo, path))
+

@@ -1,0 +1,146 @@
+"""Regression check: rerun a small fixed matrix and compare its means with a committed baseline.
+
+The baseline (bench/baseline.json) stores the matrix it was made with (worlds, algorithms,
+repeats, seed, noise) and, per world/algorithm, the mean of each checked metric and the
+number of failed repeats. `regress()` reruns that matrix and reports every mean that got
+worse by more than its tolerance (`TOLERANCES`: precision/sensitivity may drop by 0.03,
+ADNN rise by 0.3 cells, ATE by 0.02 m, no new failures). Getting better never fails;
+refresh the baseline with update=True (`--update`) when a change is meant.
+"""
+from __future__ import annotations
+
+import json
+import math
+import sys
+import tempfile
+from pathlib import Path
+
+from worlds.yamlio import InputError, atomic_write_text
+from bench.plan import RunSpec, resolve_algos
+from bench.results import jsonable, read_rows
+from bench.tables import mean_std
+
+__all__ = ["BASELINE_PATH", "DEFAULT_WORLDS", "DEFAULT_REPEATS", "TOLERANCES", "summarize",
+           "compare", "regress"]
+
+BASELINE_PATH = Path(__file__).with_name("baseline.json")
+DEFAULT_WORLDS = ("rectangle_s", "swirl_s")
+DEFAULT_REPEATS = 2
+# metric -> (direction that is worse, allowed change of the mean)
+TOLERANCES: dict[str, tuple[str, float]] = {
+    "precision": ("drop", 0.03), "sensitivity": ("drop", 0.03),
+    "precision_t1": ("drop", 0.03), "sensitivity_t1": ("drop", 0.03),
+    "adnn_cells": ("rise", 0.3), "ate_m": ("rise", 0.02),
+    "failed": ("rise", 0.0),
+}
+
+
+def summarize(rows: list[dict], metrics=TOLERANCES) -> dict[str, dict]:
+    """'world/algo' -> {metric: mean over ok rows (None if none), 'failed': count, 'n': count}."""
+    groups: dict[str, list[dict]] = {}
+    for r in rows:
+        groups.setdefault(f"{r['world']}/{r['algo']}", []).append(r)
+    out = {}
+    for key, rs in sorted(groups.items()):
+        ok = [r for r in rs if r.get("status") == "ok"]
+        entry = {"n": len(rs), "failed": len(rs) - len(ok)}
+        for m in metrics:
+            if m == "failed":
+                continue
+            mean, _, n = mean_std(r.get(m) for r in ok)
+            entry[m] = mean if n else None
+        out[key] = entry
+    return out
+
+
+def compare(baseline: dict[str, dict], current: dict[str, dict],
+            tolerances=TOLERANCES) -> list[str]:
+    """Lines describing every metric of `current` worse than `baseline` beyond its tolerance."""
+    worse = []
+    for key, base in sorted(baseline.items()):
+        cur = current.get(key)
+        if cur is None:
+            worse.append(f"{key}: missing from this run")
+            continue
+        for m, (direction, tol) in tolerances.items():
+            b, c = base.get(m), cur.get(m)
+            if b is None:
+                continue
+            if c is None or (isinstance(c, float) and math.isnan(c)):
+                worse.append(f"{key}: {m} has no value now (baseline {b:.4g})")
+                continue
+            change = (b - c) if direction == "drop" else (c - b)
+            if change > tol + 1e-12:
+                verb = "dropped" if direction == "drop" else "rose"
+                worse.append(f"{key}: {m} {verb} from {b:.4g} to {c:.4g} "
+                             f"(by {change:.4g}, tolerance {tol:g})")
+    return worse
+
+
+def _load_baseline(path: Path) -> dict:
+    if not path.is_file():
+        raise InputError(f"{path}: no baseline file (create one with --update)")
+    try:
+        data = json.loads(path.read_text())
+    except json.JSONDecodeError as err:
+        raise InputError(f"{path}: not valid JSON: {err}") from None
+    if not isinstance(data, dict) or "matrix" not in data or "means" not in data:
+        raise InputError(f"{path}: not a bench baseline (needs 'matrix' and 'means')")
+    return data
+
+
+def regress(baseline: str | Path | None = None, update: bool = False, worlds=None, algos=None,
+            repeats: int | None = None, seed: int = 0, noise: str = "realistic",
+            jobs: int | None = None, out: str | Path | None = None, stream=None,
+            progress: bool = True) -> int:
+    """Rerun the baseline's matrix (or the one given) and compare; returns the exit code.
+
+    0: nothing got worse (or update=True wrote the baseline); 1: something got worse (listed
+    on `stream`). Without update the matrix comes from the baseline file unless given.
+    """
+    from bench.runner import print_outcome, run_benchmark
+    stream = stream or sys.stdout
+    path = Path(baseline) if baseline else BASELINE_PATH
+    base = None if update else _load_baseline(path)
+    matrix = dict(base["matrix"]) if base else {}
+    if worlds is not None:
+        matrix["worlds"] = list(worlds)
+    if algos is not None:
+        matrix["algos"] = list(algos)
+    if repeats is not None:
+        matrix["repeats"] = repeats
+    matrix.setdefault("worlds", list(DEFAULT_WORLDS))
+    matrix.setdefault("algos", resolve_algos(None))
+    matrix.setdefault("repeats", DEFAULT_REPEATS)
+    matrix.setdefault("seed", seed)
+    matrix.setdefault("noise", noise)
+    resolve_algos(",".join(matrix["algos"]))
+    spec = RunSpec(worlds=tuple(matrix["worlds"]), algos=tuple(matrix["algos"]),
+                   repeats=int(matrix["repeats"]), noise=matrix["noise"], seed=int(matrix["seed"]),
+                   vary="slam")
+    with tempfile.TemporaryDirectory(prefix="bench-regress-") as tmp:
+        out_dir = Path(out) if out else Path(tmp) / "run"
+        outcome = run_benchmark(spec, out_dir, jobs=jobs, progress=progress,
+                                argv=["regress"])
+        if not outcome.complete:
+            print_outcome(outcome)
+            return 130 if outcome.interrupted else 1
+        current = summarize(read_rows(out_dir))
+    if update:
+        data = {"matrix": matrix, "tolerances": {k: list(v) for k, v in TOLERANCES.items()},
+                "means": current}
+        atomic_write_text(path, json.dumps(jsonable(data), indent=1, sort_keys=True) + "\n")
+        print(f"baseline written: {path} ({len(current)} world/algorithm pairs)", file=stream)
+        return 0
+    tolerances = {k: (v[0], float(v[1])) for k, v in base.get("tolerances", {}).items()} or TOLERANCES
+    worse = compare(base["means"], current, tolerances)
+    new = sorted(set(current) - set(base["means"]))
+    if new:
+        print(f"not in the baseline (not checked): {', '.join(new)}", file=stream)
+    if worse:
+        print(f"regression: {len(worse)} metric(s) got worse than {path}:", file=stream)
+        for line in worse:
+            print(f"  {line}", file=stream)
+        return 1
+    print(f"no regression against {path} ({len(base['means'])} world/algorithm pairs)", file=stream)
+    return 0

@@ -1,0 +1,272 @@
+"""The benchmark loop: worlds -> cached logs -> SLAM tasks in parallel -> rows as they finish.
+
+`run_benchmark(spec, out_dir, ...)` loads and rasterizes each world (truth grid saved under
+DIR/maps/<world>/truth.npz), records each missing log once (in parallel across worlds and
+seeds), submits a world's SLAM tasks as soon as its log exists, and stores every finished
+row at once (results.json rewritten atomically, map and trajectory in
+DIR/maps/<world>/<algo>/<repeat>.npz). Ctrl-C or a dead worker loses nothing stored;
+`resume=True` runs only the rows missing from results.json, with the seeds of run.json.
+"""
+from __future__ import annotations
+
+import datetime as _dt
+import json
+import sys
+from concurrent.futures.process import BrokenProcessPool
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from worlds.yamlio import InputError, atomic_write_text
+from bench import cache
+from bench.executors import make_executor
+from bench.plan import RunSpec, Task, config_dict, load_config_checked, load_plugins, make_tasks
+from bench.progress import Progress
+from bench.results import RESULTS_NAME, RUN_NAME, ResultStore, jsonable
+from bench.task import WorldInfo, execute, record_log, versions
+
+__all__ = ["run_benchmark", "RunOutcome", "load_worlds", "default_out_dir", "read_run",
+           "map_path", "truth_path"]
+
+
+@dataclass
+class RunOutcome:
+    """How a run ended: rows stored now (ok / failed), total rows, interrupted or crashed."""
+
+    out_dir: Path
+    total: int
+    ok: int
+    failed: int
+    interrupted: bool = False
+    crashed: str | None = None
+
+    @property
+    def complete(self) -> bool:
+        return self.ok + self.failed == self.total and not self.interrupted and not self.crashed
+
+
+def default_out_dir() -> Path:
+    """runs/<UTC timestamp> under the current directory."""
+    return Path("runs") / _dt.datetime.now(_dt.timezone.utc).strftime("%Y%m%d-%H%M%S")
+
+
+def map_path(out_dir: Path, world: str, algo: str, repeat: int) -> Path:
+    return Path(out_dir) / "maps" / world / algo / f"{int(repeat)}.npz"
+
+
+def truth_path(out_dir: Path, world: str) -> Path:
+    return Path(out_dir) / "maps" / world / "truth.npz"
+
+
+def load_worlds(names: list[str]):
+    """World names/paths -> ({key: World}, {key: YAML file or None}); keys are the world
+    names, made unique if two differ only by path."""
+    import worlds
+    out, files = {}, {}
+    for name in names:
+        try:
+            w = worlds.load_world(name)
+        except InputError as err:
+            msg = str(err)
+            raise InputError(msg if msg.startswith(str(name)) else f"--world {name}: {msg}") from None
+        key = w.name
+        i = 2
+        while key in out:
+            key = f"{w.name}_{i}"
+            i += 1
+        out[key] = w
+        files[key] = cache.world_file(name)
+    return out, files
+
+
+def read_run(out_dir: Path) -> dict:
+    """DIR/run.json as a dict; InputError if missing or malformed."""
+    p = Path(out_dir) / RUN_NAME
+    if not p.is_file():
+        raise InputError(f"{out_dir}: no {RUN_NAME} here: not a bench run directory")
+    try:
+        return json.loads(p.read_text())
+    except json.JSONDecodeError as err:
+        raise InputError(f"{p}: not valid JSON: {err}") from None
+
+
+def _check_out_dir(out_dir: Path, resume: bool) -> None:
+    holds = [n for n in (RESULTS_NAME, RUN_NAME) if (out_dir / n).exists()]
+    if holds and not resume:
+        raise InputError(f"{out_dir} already holds another run's results ({', '.join(holds)}); "
+                         f"use --resume {out_dir} to complete it, or choose another --out")
+    if resume and not (out_dir / RUN_NAME).exists():
+        raise InputError(f"--resume {out_dir}: no {RUN_NAME} there: nothing to resume")
+
+
+def _save_truth(out_dir: Path, key: str, world, truth) -> None:
+    p = truth_path(out_dir, key)
+    p.parent.mkdir(parents=True, exist_ok=True)
+    np.savez_compressed(p, prob=truth.prob, resolution=truth.resolution, origin=truth.origin,
+                        bounds=np.asarray(world.bounds, dtype=np.float64))
+
+
+def _save_gt(out_dir: Path, key: str, seed: int, log) -> None:
+    """True trajectory of the log (for the trajectory figure), once per world and log seed."""
+    p = Path(out_dir) / "maps" / key / f"gt_s{int(seed)}.npz"
+    if not p.exists() and log is not None and log.has_ground_truth:
+        p.parent.mkdir(parents=True, exist_ok=True)
+        np.savez_compressed(p, times=log.gt_t, poses=log.gt_pose)
+
+
+def _save_arrays(out_dir: Path, task: Task, arrays: dict | None) -> str | None:
+    if arrays is None:
+        return None
+    p = map_path(out_dir, task.world, task.algo, task.repeat)
+    p.parent.mkdir(parents=True, exist_ok=True)
+    tmp = p.with_suffix(".tmp.npz")
+    np.savez_compressed(tmp, **{k: np.asarray(v) for k, v in arrays.items()})
+    tmp.replace(p)
+    return str(p.relative_to(out_dir))
+
+
+def _write_run_json(out_dir: Path, spec: RunSpec, world_map: dict, world_files: dict, argv: list[str] | None,
+                    resumed_from: dict | None) -> None:
+    data = resumed_from or {}
+    data.update({
+        "spec": spec.to_json(),
+        "command": data.get("command") or ["python", "-m", "bench", *(argv or [])],
+        "versions": versions(),
+        "worlds": {k: {"name": w.name, "file": str(world_files[k] or "")}
+                   for k, w in world_map.items()},
+        "configs": {a: config_dict(a, spec.configs.get(a)) for a in spec.algos},
+    })
+    if resumed_from is not None:
+        data.setdefault("resumed", []).append({
+            "at": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
+            "command": ["python", "-m", "bench", *(argv or [])]})
+    else:
+        data["started"] = _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds")
+    out_dir.mkdir(parents=True, exist_ok=True)
+    atomic_write_text(out_dir / RUN_NAME, json.dumps(jsonable(data), indent=1) + "\n")
+
+
+def run_benchmark(spec: RunSpec, out_dir: str | Path, jobs: int | None = None,
+                  scheduler: str | None = None, resume: bool = False, progress: bool = True,
+                  argv: list[str] | None = None, stream=None) -> RunOutcome:
+    """Run (or, with resume=True, complete) the benchmark `spec` into `out_dir`.
+
+    jobs: worker processes (default: all cores; 1 runs in this process); scheduler: a Dask
+    scheduler address ('local' for a LocalCluster). Returns a RunOutcome; user errors raise
+    InputError before any work starts.
+    """
+    out_dir = Path(out_dir)
+    _check_out_dir(out_dir, resume)
+    previous = read_run(out_dir) if resume else None
+    if previous is not None and RunSpec.from_json(previous["spec"]) != spec:
+        raise InputError(f"--resume {out_dir}: the run was started with other arguments; "
+                         "resume it without --world/--algo/--repeats/--seed/--noise/--vary/--config")
+    load_plugins()
+    for algo in spec.algos:
+        load_config_checked(algo, spec.configs.get(algo))  # unknown algo / bad config: fail now
+    world_map, world_files = load_worlds(list(spec.worlds))
+    store = ResultStore(out_dir) if resume else None
+    _write_run_json(out_dir, spec, world_map, world_files, argv, previous)
+    store = store or ResultStore(out_dir)
+
+    import worlds
+    infos = {}
+    for key, w in world_map.items():
+        truth = worlds.rasterize(w)
+        infos[key] = WorldInfo(key, truth, tuple(float(v) for v in w.bounds), str(w.source or ""))
+        _save_truth(out_dir, key, w, truth)
+    configs = {a: load_config_checked(a, spec.configs.get(a)) for a in spec.algos}
+
+    all_tasks = make_tasks(spec, list(world_map))
+    todo = [t for t in all_tasks if t.key not in store]
+    by_log: dict[tuple[str, int], list[Task]] = {}
+    for t in todo:
+        by_log.setdefault((t.world, t.log_seed), []).append(t)
+
+    bar = Progress(len(todo), already=len(all_tasks) - len(todo), stream=stream, enabled=progress)
+    outcome = RunOutcome(out_dir, len(all_tasks), 0, 0)
+    for row in store.rows.values():
+        if row.get("status") == "ok":
+            outcome.ok += 1
+        else:
+            outcome.failed += 1
+    if not todo:
+        bar.close()
+        return outcome
+
+    ex = make_executor(jobs, scheduler)
+    remote = scheduler is not None
+    pending: dict = {}  # future -> ("log", (world, seed)) | ("task", Task)
+    shared: dict = {}   # scattered world infos / configs (Dask: sent once)
+
+    def world_handle(key):
+        if key not in shared:
+            shared[key] = ex.scatter(infos[key]) if remote else infos[key]
+        return shared[key]
+
+    def submit_tasks(lkey, log_source):
+        for t in by_log[lkey]:
+            fut = ex.submit(execute, t, world_handle(t.world), log_source, configs[t.algo],
+                            spec.noise, spec.vary)
+            pending[fut] = ("task", t)
+
+    def log_ready(lkey, path, log=None):
+        if log is None:
+            log = _read(path)  # cheap next to a SLAM run; gives the true path for the figures
+        _save_gt(out_dir, lkey[0], lkey[1], log)
+        submit_tasks(lkey, ex.scatter(log) if remote else str(path))
+
+    try:
+        for lkey in by_log:
+            key, seed = lkey
+            path = cache.log_path(world_map[key], seed, spec.noise, world_files[key])
+            if path.exists():
+                log_ready(lkey, path)
+            else:
+                bar.note(f"recording {key} seed {seed}")
+                pending[ex.submit(record_log, world_map[key], seed, spec.noise)] = ("log", lkey)
+        while pending:
+            done, _ = ex.wait_any(list(pending))
+            for fut in done:
+                kind, what = pending.pop(fut)
+                if kind == "log":
+                    import sim
+                    log = ex.result(fut)
+                    path = cache.log_path(world_map[what[0]], what[1], spec.noise, world_files[what[0]])
+                    sim.write_log(log, path)
+                    log_ready(what, path, log)
+                    continue
+                row, arrays = ex.result(fut)
+                row["map_file"] = _save_arrays(out_dir, what, arrays)
+                row["finished_at"] = _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds")
+                store.add(row)
+                ok = row["status"] == "ok"
+                outcome.ok += ok
+                outcome.failed += not ok
+                bar.advance(what.label + ("" if ok else f" ({str(row['error'])[:50]})"), ok)
+    except KeyboardInterrupt:
+        outcome.interrupted = True
+    except BrokenProcessPool as err:
+        outcome.crashed = f"a worker process died ({err})"
+    finally:
+        bar.close()
+        ex.shutdown(cancel=True)
+    return outcome
+
+
+def _read(path):
+    from sim.log import read_log
+    return read_log(path)
+
+
+def print_outcome(outcome: RunOutcome, stream=None) -> None:
+    """One summary line for the end of a run (and how to resume an unfinished one)."""
+    stream = stream or sys.stderr
+    done = outcome.ok + outcome.failed
+    msg = f"{done}/{outcome.total} rows ({outcome.failed} failed) in {outcome.out_dir}"
+    if outcome.interrupted:
+        msg = f"interrupted: {msg}; complete it with: python -m bench run --resume {outcome.out_dir}"
+    elif outcome.crashed:
+        msg = f"{outcome.crashed}: {msg}; complete it with: python -m bench run --resume {outcome.out_dir}"
+    print(msg, file=stream)

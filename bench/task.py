@@ -1,0 +1,165 @@
+"""What one worker does: run one SLAM on one log, check it, score its map and trajectory.
+
+`execute(task, world, log_source, config, noise, vary)` never raises for a SLAM's own
+failure: an exception or a diverged result (NaN pose, pose more than `DIVERGE_MARGIN_M`
+outside the world's bounds) becomes a row with status "failed" and the message, so one bad
+run is a recorded result, not a crashed benchmark. It returns (row, arrays): the row of
+results.json and the map and trajectory arrays the report draws (the caller stores them).
+`record_log` is the other worker job: record one sensor log.
+"""
+from __future__ import annotations
+
+import platform
+import time
+import traceback
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from worlds.grid import Grid
+
+__all__ = ["WorldInfo", "execute", "record_log", "versions", "DIVERGE_MARGIN_M", "TOLERANCES",
+           "check_divergence"]
+
+# a pose this far outside the world's solid geometry cannot be a working SLAM
+DIVERGE_MARGIN_M = 2.0
+# grid-portion tolerances (cells) scored for every map: the study's 0, and 1 and 2 cells
+TOLERANCES = (0, 1, 2)
+# score_map keys copied per tolerance (suffix _t1, _t2); tolerance 0 copies every scalar key
+_PER_TOL_KEYS = ("precision", "sensitivity", "f1", "tp", "fp", "fn")
+
+
+@dataclass(frozen=True, eq=False)
+class WorldInfo:
+    """What a worker needs of a world: its key, the truth grid and bounds (xmin, ymin, xmax, ymax)."""
+
+    key: str
+    truth: Grid
+    bounds: tuple[float, float, float, float]
+    source: str = ""
+
+
+_VERSIONS: dict | None = None
+
+
+def versions() -> dict:
+    """Versions of the package, simulator, python, numpy and numba (cached per process)."""
+    global _VERSIONS
+    if _VERSIONS is None:
+        import numba
+        import sim
+        try:
+            from importlib.metadata import version
+            pkg = version("slam-bench-2d")
+        except Exception:
+            pkg = "unknown"
+        _VERSIONS = {"package": pkg, "sim": str(getattr(sim, "SIM_VERSION", "unknown")),
+                     "python": platform.python_version(), "numpy": np.__version__,
+                     "numba": numba.__version__}
+    return dict(_VERSIONS)
+
+
+def record_log(world, seed: int, noise: str):
+    """Record the sensor log of `world` (a World) with `seed` and `noise` (worker job)."""
+    import sim
+    return sim.record(world, seed=int(seed), noise=noise)
+
+
+_LOGS: dict[str, object] = {}
+
+
+def _load_log(source):
+    """A SensorLog from a path (read once per process; the last few kept) or the log itself."""
+    if not isinstance(source, (str, Path)):
+        return source
+    key = str(source)
+    if key not in _LOGS:
+        from sim.log import read_log
+        if len(_LOGS) >= 4:
+            _LOGS.pop(next(iter(_LOGS)))
+        _LOGS[key] = read_log(key)
+    return _LOGS[key]
+
+
+def check_divergence(poses: np.ndarray, bounds, margin: float = DIVERGE_MARGIN_M) -> str | None:
+    """None if the (N, 3) trajectory is finite and within `bounds` +- margin, else why not."""
+    poses = np.asarray(poses, dtype=np.float64).reshape(-1, 3)
+    if len(poses) == 0:
+        return "diverged: empty trajectory"
+    bad = ~np.isfinite(poses).all(axis=1)
+    if bad.any():
+        return f"diverged: non-finite pose at index {int(np.argmax(bad))}"
+    xmin, ymin, xmax, ymax = bounds
+    out = ((poses[:, 0] < xmin - margin) | (poses[:, 0] > xmax + margin)
+           | (poses[:, 1] < ymin - margin) | (poses[:, 1] > ymax + margin))
+    if out.any():
+        i = int(np.argmax(out))
+        return (f"diverged: pose {i} at ({poses[i, 0]:.2f}, {poses[i, 1]:.2f}) m is more than "
+                f"{margin:g} m outside the world bounds")
+    return None
+
+
+def _scalars(d: dict) -> dict:
+    return {k: v for k, v in d.items() if isinstance(v, (int, float, str, bool, np.generic)) or v is None}
+
+
+def _score(grid: Grid, truth: Grid) -> dict:
+    """Every map metric at tolerance 0; P/S/F1/TP/FP/FN again at 1 and 2 cells, under the
+    same alignment (the SLAM starts at the true pose: ICP refines from identity)."""
+    import metrics
+    from metrics.score import classify
+    s = metrics.score_map(grid, truth, align="auto", initial=(0.0, 0.0, 0.0), tolerance=0)
+    out = _scalars(s)
+    al = s["align"]
+    out.update({f"align_{k}": float(al[k]) for k in ("x", "y", "yaw")})
+    for tol in TOLERANCES:
+        if tol:
+            counts = classify(grid, truth, al, tolerance=tol).classes.counts
+            out.update({f"{k}_t{tol}": counts[k] for k in _PER_TOL_KEYS if k in counts})
+    return out
+
+
+def execute(task, world: WorldInfo, log_source, config=None, noise: str = "", vary: str = "slam"):
+    """Run `task` (bench.plan.Task) on the log; return (row, arrays) (see the module docstring).
+
+    log_source: a path of a cached log or a SensorLog; config: the algorithm's config (None:
+    defaults). arrays: prob (rows, cols), resolution, origin (3,), times (N,), poses (N, 3)
+    or None when the SLAM failed before producing a result.
+    """
+    t0 = time.perf_counter()
+    row = {"world": task.world, "algo": task.algo, "repeat": int(task.repeat), "status": "ok",
+           "error": None, "log_seed": int(task.log_seed), "slam_seed": int(task.slam_seed),
+           "noise": str(noise), "vary": vary, "versions": versions()}
+    arrays = None
+    try:
+        from slam.base import run_algorithm
+        log = _load_log(log_source)
+        result = run_algorithm(task.algo, log, config=config, seed=int(task.slam_seed))
+        stats = dict(result.stats)
+        for k in ("wall_time_s", "realtime_factor", "log_duration_s", "scans_processed"):
+            if k in stats:
+                row[k] = stats.pop(k)
+        stats.pop("algo", None)
+        stats.pop("seed", None)
+        row["slam_stats"] = _scalars(stats)
+        arrays = {"prob": result.grid.prob, "resolution": result.grid.resolution,
+                  "origin": result.grid.origin, "times": result.times, "poses": result.poses}
+        problem = check_divergence(result.poses, world.bounds)
+        if problem:
+            row.update(status="failed", error=problem)
+        else:
+            s0 = time.perf_counter()
+            row.update(_score(result.grid, world.truth))
+            if log.has_ground_truth:
+                import metrics
+                row.update(_scalars(metrics.trajectory_error(result.times, result.poses,
+                                                             log.gt_t, log.gt_pose)))
+            row["score_time_s"] = time.perf_counter() - s0
+    except Exception as err:  # a failing SLAM (or scorer) is a result, not a crash
+        msg = str(err).strip().splitlines()[0] if str(err).strip() else ""
+        row.update(status="failed", error=f"{type(err).__name__}: {msg}".rstrip(": "),
+                   traceback="".join(traceback.format_exception(err)[-3:]))
+    row["task_time_s"] = time.perf_counter() - t0
+    row["worker"] = platform.node()
+    return row, arrays
