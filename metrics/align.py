@@ -70,20 +70,7 @@ def _fitness(pts: np.ndarray, truth: PreparedTruth, pose: np.ndarray, cut: float
     return float(inl.mean()), float(np.sqrt(np.mean(d[inl] ** 2)))
 
 
-def icp(pts: np.ndarray, truth: PreparedTruth, initial: np.ndarray,
-        cfg: AlignConfig = AlignConfig()) -> tuple[np.ndarray, int]:
-    """Trimmed point-to-point ICP of estimated cell centres onto the true ones.
-
-    pts: (N, 2) estimate occupied-cell centres, estimate world m; initial: (3,) start transform.
-    Returns (pose (3,), iterations used).
-    """
-    res = truth.resolution
-    pose = np.asarray(initial, dtype=np.float64).copy()
-    if len(pts) < 3:
-        return pose, 0
-    radius = max(float(np.max(np.linalg.norm(pts - pts.mean(0), axis=1))), res)
-    cut = cfg.icp_start_cells * res
-    final = cfg.icp_final_cells * res
+def _icp_loop(pts, truth, pose, cut, final, radius, cfg):
     it = 0
     for it in range(1, cfg.icp_max_iter + 1):
         moved = transform_points(pose, pts)
@@ -96,9 +83,50 @@ def icp(pts: np.ndarray, truth: PreparedTruth, initial: np.ndarray,
         shift = np.hypot(step[0], step[1]) + abs(step[2]) * radius
         at_final = cut <= final
         cut = max(final, cut * cfg.icp_shrink)
-        if at_final and shift < cfg.icp_tol_cells * res:
+        if at_final and shift < cfg.icp_tol_cells * truth.resolution:
             break
     return pose, it
+
+
+def _cost(pts, truth, pose, cut):
+    d, _ = truth.tree.query(transform_points(pose, pts), distance_upper_bound=cut)
+    return float(np.mean(np.minimum(d, cut) ** 2))
+
+
+# half-cell moves tried after convergence, see icp()
+_HALF_STEPS = [(dx, dy) for dx in (-0.5, 0.0, 0.5) for dy in (-0.5, 0.0, 0.5) if dx or dy]
+
+
+def icp(pts: np.ndarray, truth: PreparedTruth, initial: np.ndarray,
+        cfg: AlignConfig = AlignConfig()) -> tuple[np.ndarray, int]:
+    """Trimmed point-to-point ICP of estimated cell centres onto the true ones.
+
+    pts: (N, 2) estimate occupied-cell centres, estimate world m; initial: (3,) start transform.
+    Returns (pose (3,), iterations used).
+    On grids, point-to-point ICP has balanced fixed points half a cell off (each point halfway
+    between two true cells). After convergence the 8 half-cell moves are tried; when one lowers
+    the truncated squared distance, ICP restarts from there (at most 3 times).
+    """
+    res = truth.resolution
+    pose = np.asarray(initial, dtype=np.float64).copy()
+    if len(pts) < 3:
+        return pose, 0
+    radius = max(float(np.max(np.linalg.norm(pts - pts.mean(0), axis=1))), res)
+    final = cfg.icp_final_cells * res
+    pose, total = _icp_loop(pts, truth, pose, cfg.icp_start_cells * res, final, radius, cfg)
+    for _ in range(3):
+        cost = _cost(pts, truth, pose, final)
+        trials = [compose(np.array([dx * res, dy * res, 0.0]), pose) for dx, dy in _HALF_STEPS]
+        costs = [_cost(pts, truth, p, final) for p in trials]
+        k = int(np.argmin(costs))
+        if not costs[k] < 0.98 * cost:
+            break
+        cand, it = _icp_loop(pts, truth, trials[k], final, final, radius, cfg)
+        total += it
+        if not _cost(pts, truth, cand, final) < cost:
+            break
+        pose = cand
+    return pose, total
 
 
 def global_candidates(pts: np.ndarray, truth: PreparedTruth,

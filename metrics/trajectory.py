@@ -92,7 +92,8 @@ def trajectory_error(est_t: np.ndarray, est_poses: np.ndarray, gt_t: np.ndarray,
 
     # segment pairs by true path length: j is the first pose at least segment_m past i
     dist = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(gt[:, :2], axis=0), axis=1))])
-    j = np.searchsorted(dist, dist + segment_m, side="left")
+    # (1e-9 m: a segment summed from many steps may fall short of segment_m by rounding)
+    j = np.searchsorted(dist, dist + segment_m - 1e-9, side="left")
     i = np.nonzero(j < len(dist))[0]
     j = j[i]
     out = {"ate_m": ate, "ate_start_m": ate_start, "ate_yaw_rad": ate_yaw,

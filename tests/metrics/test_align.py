@@ -1,0 +1,102 @@
+"""Alignment: ICP from a guess and the global search from nothing recover rigid transforms."""
+import numpy as np
+import pytest
+
+from metrics.align import align_points, global_candidates, icp
+from metrics.truth import prepare_truth
+from slam.pose import compose, inverse, transform_points
+from tests.metrics.maps import ROOM, draw
+from worlds.yamlio import InputError
+
+RES = 0.05
+
+
+def random_room(rng):
+    """An asymmetric room: outer walls of random size, 3-5 random inner walls, a random box."""
+    w, h = rng.uniform(3.0, 7.0, 2)
+    segs = [((0, 0), (w, 0)), ((w, 0), (w, h)), ((w, h), (0, h)), ((0, h), (0, 0))]
+    for _ in range(rng.integers(3, 6)):
+        a = rng.uniform([0.3, 0.3], [w - 0.3, h - 0.3])
+        if rng.random() < 0.5:
+            b = (rng.uniform(0.3, w - 0.3), a[1])
+        else:
+            b = (a[0], rng.uniform(0.3, h - 0.3))
+        segs.append((tuple(a), b))
+    cx, cy = rng.uniform([0.8, 0.8], [w - 0.8, h - 0.8])
+    s = rng.uniform(0.15, 0.4)
+    box = [(cx - s, cy - s), (cx + s, cy - s), (cx + s, cy + s), (cx - s, cy + s)]
+    segs += [(box[i], box[(i + 1) % 4]) for i in range(4)]
+    return segs
+
+
+def rms_displacement(pose_a, pose_b, pts):
+    return float(np.sqrt(np.mean(np.sum((transform_points(pose_a, pts) - transform_points(pose_b, pts)) ** 2, 1))))
+
+
+def yaw_error_deg(a, b):
+    return abs(np.rad2deg(np.angle(np.exp(1j * (a[2] - b[2])))))
+
+
+def test_identity_stays_identity():
+    t = prepare_truth(draw(ROOM))
+    for mode in ("icp", "global", "none", "start"):
+        al = align_points(t.points, t, mode, (0.0, 0.0, 0.0) if mode != "global" else None)
+        np.testing.assert_allclose(al.pose, 0.0, atol=1e-9)
+        assert al.inlier_fraction == 1.0
+
+
+@pytest.mark.parametrize("seed", range(12))
+def test_global_recovers_random_rigid_transforms(seed):
+    rng = np.random.default_rng(seed)
+    segs = random_room(rng)
+    truth = prepare_truth(draw(segs))
+    pose = np.array([*rng.uniform(-2.0, 2.0, 2), rng.uniform(-np.pi, np.pi)])
+    est = draw(segs, pose=pose)  # the walls rasterized afresh in the moved frame
+    pts = est.occupied_xy()
+    al = align_points(pts, truth, "global", None)
+    assert al.mode == "global"
+    # the optimum ICP reaches when started at the true transform ...
+    best, _ = icp(pts, truth, pose)
+    assert yaw_error_deg(al.pose, best) < 0.05
+    assert rms_displacement(al.pose, best, truth.points) < 0.1 * RES
+    # ... differs from the true transform only by the rasterization of both maps (walls at
+    # random positions land up to half a cell off in each)
+    assert yaw_error_deg(al.pose, pose) < 0.5
+    assert rms_displacement(al.pose, pose, truth.points) < 1.0 * RES
+
+
+def test_global_candidates_contain_the_right_rotation():
+    truth = prepare_truth(draw(ROOM))
+    pose = np.array([0.4, -0.3, 2.0])
+    est = draw(ROOM, pose=pose)
+    cands = global_candidates(est.occupied_xy(), truth)
+    assert min(yaw_error_deg(c, pose) for c in cands) <= 1.0
+
+
+@pytest.mark.parametrize("guess", [(0.0, 0.0, 0.0), (0.1, 0.1, 0.05)])
+def test_icp_from_a_guess(guess):
+    truth = prepare_truth(draw(ROOM))
+    centre = np.array([3.0, 2.5, 0.0])
+    # 3 cells shift and 10 degrees about the room centre
+    move = compose(compose(centre + [3 * RES, 0, 0], [0, 0, np.deg2rad(10)]), inverse(centre))
+    est = draw(ROOM, pose=move)
+    al = align_points(est.occupied_xy(), truth, "icp", guess)
+    assert yaw_error_deg(al.pose, move) < 0.5
+    assert rms_displacement(al.pose, move, truth.points) < 0.5 * RES
+
+
+def test_auto_mode_and_bad_mode():
+    t = prepare_truth(draw(ROOM))
+    assert align_points(t.points, t, "auto", (0, 0, 0)).mode == "icp"
+    assert align_points(t.points, t, "auto", None).mode == "global"
+    with pytest.raises(InputError, match="unknown mode"):
+        align_points(t.points, t, "bogus")
+    with pytest.raises(InputError, match="start pose"):
+        align_points(t.points, t, "start", None)
+
+
+def test_start_mode_returns_the_prior():
+    t = prepare_truth(draw(ROOM))
+    al = align_points(t.points, t, "start", (0.2, 0.0, 0.1))
+    np.testing.assert_array_equal(al.pose, [0.2, 0.0, 0.1])
+    assert al.inlier_fraction < 1.0

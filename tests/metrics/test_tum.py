@@ -1,0 +1,46 @@
+"""TUM trajectory files: round trip and clear errors on bad lines."""
+import numpy as np
+import pytest
+
+from metrics.tum import read_tum, write_tum, yaw_from_quaternion
+from worlds.yamlio import InputError
+
+
+def test_round_trip(tmp_path, rng):
+    t = np.cumsum(rng.uniform(0.05, 0.2, 50))
+    poses = np.column_stack([rng.normal(size=(50, 2)), rng.uniform(-np.pi, np.pi, 50)])
+    write_tum(tmp_path / "a.tum", t, poses)
+    t2, p2 = read_tum(tmp_path / "a.tum")
+    np.testing.assert_allclose(t2, t, atol=1e-9)
+    np.testing.assert_allclose(p2[:, :2], poses[:, :2], atol=1e-7)
+    np.testing.assert_allclose(np.angle(np.exp(1j * (p2[:, 2] - poses[:, 2]))), 0, atol=1e-9)
+
+
+def test_yaw_from_quaternion_ignores_nothing_in_plane():
+    assert yaw_from_quaternion(0, 0, np.sin(0.3), np.cos(0.3)) == pytest.approx(0.6)
+
+
+def test_comments_and_unsorted_lines(tmp_path):
+    f = tmp_path / "b.tum"
+    f.write_text("# t x y z qx qy qz qw\n2 1 0 0 0 0 0 1\n\n1 0 0 0 0 0 0 1\n")
+    t, p = read_tum(f)
+    assert list(t) == [1.0, 2.0] and list(p[:, 0]) == [0.0, 1.0]
+
+
+@pytest.mark.parametrize("text, match", [
+    ("1 2 3\n", "line 1: expected 8 numbers"),
+    ("1 0 0 0 0 0 0 1\n2 a 0 0 0 0 0 1\n", "line 2: not a number"),
+    ("1 0 0 0 0 0 0 0\n", "zero quaternion"),
+    ("# nothing\n", "no poses"),
+    ("1 0 0 0 0 0 0 1\n1 1 0 0 0 0 0 1\n", "repeated timestamps"),
+])
+def test_bad_files(tmp_path, text, match):
+    f = tmp_path / "bad.tum"
+    f.write_text(text)
+    with pytest.raises(InputError, match=match):
+        read_tum(f)
+
+
+def test_missing_file(tmp_path):
+    with pytest.raises(InputError, match="file not found"):
+        read_tum(tmp_path / "none.tum")
