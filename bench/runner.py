@@ -177,6 +177,8 @@ def run_benchmark(spec: RunSpec, out_dir: str | Path, jobs: int | None = None,
         infos[key] = WorldInfo(key, truth, tuple(float(v) for v in w.bounds), str(w.source or ""))
         _save_truth(out_dir, key, w, truth)
     configs = {a: load_config_checked(a, spec.configs.get(a)) for a in spec.algos}
+    from slam.base import ALGORITHMS
+    algo_classes = {a: ALGORITHMS[a] for a in spec.algos}
 
     all_tasks = make_tasks(spec, list(world_map))
     todo = [t for t in all_tasks if t.key not in store]
@@ -208,7 +210,7 @@ def run_benchmark(spec: RunSpec, out_dir: str | Path, jobs: int | None = None,
     def submit_tasks(lkey, log_source):
         for t in by_log[lkey]:
             fut = ex.submit(execute, t, world_handle(t.world), log_source, configs[t.algo],
-                            spec.noise, spec.vary)
+                            spec.noise, spec.vary, algo_classes[t.algo])
             pending[fut] = ("task", t)
 
     def log_ready(lkey, path, log=None):

@@ -120,11 +120,14 @@ def _score(grid: Grid, truth: Grid) -> dict:
     return out
 
 
-def execute(task, world: WorldInfo, log_source, config=None, noise: str = "", vary: str = "slam"):
+def execute(task, world: WorldInfo, log_source, config=None, noise: str = "", vary: str = "slam",
+            algo_cls: type | None = None):
     """Run `task` (bench.plan.Task) on the log; return (row, arrays) (see the module docstring).
 
     log_source: a path of a cached log or a SensorLog; config: the algorithm's config (None:
-    defaults). arrays: prob (rows, cols), resolution, origin (3,), times (N,), poses (N, 3)
+    defaults); algo_cls: the algorithm's class, registered here if this worker process does
+    not know the name (an algorithm registered in the driving script, sent to a Dask worker).
+    arrays: prob (rows, cols), resolution, origin (3,), times (N,), poses (N, 3)
     or None when the SLAM failed before producing a result.
     """
     t0 = time.perf_counter()
@@ -133,7 +136,10 @@ def execute(task, world: WorldInfo, log_source, config=None, noise: str = "", va
            "noise": str(noise), "vary": vary, "versions": versions()}
     arrays = None
     try:
-        from slam.base import run_algorithm
+        from slam.base import ALGORITHMS, _ensure_builtin_algorithms, register, run_algorithm
+        _ensure_builtin_algorithms()
+        if algo_cls is not None and task.algo not in ALGORITHMS:
+            register(task.algo)(algo_cls)
         log = _load_log(log_source)
         result = run_algorithm(task.algo, log, config=config, seed=int(task.slam_seed))
         stats = dict(result.stats)

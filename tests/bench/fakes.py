@@ -7,6 +7,7 @@ fake_interrupt: a Ctrl-C once INTERRUPT["after"] runs are done, else behaves as 
 """
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass
 
 import numpy as np
@@ -21,6 +22,7 @@ INTERRUPT = {"after": None, "built": 0}
 @dataclass(frozen=True)
 class FakeConfig:
     pose_noise_m: float = 0.01
+    delay_s: float = 0.0  # sleep in finish(): a slow run, for the kill-and-resume test
 
 
 class _Base:
@@ -42,7 +44,7 @@ class _Base:
         return pose
 
     def finish(self):
-        pass
+        time.sleep(self.cfg.delay_s)
 
     def map(self):
         pts = np.vstack(self.points)

@@ -1,0 +1,141 @@
+"""The run loop on the tiny world with fast fake algorithms (tests/bench/fakes.py)."""
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from bench import RunSpec, comparable, read_rows, run_benchmark
+from bench import cache
+from tests.bench import fakes
+from worlds.yamlio import InputError
+
+REPO = Path(__file__).resolve().parents[2]
+
+
+def _spec(tiny, **kw):
+    args = dict(worlds=(tiny,), algos=("fake_map", "fake_raise", "fake_diverge"), repeats=2)
+    return RunSpec(**(args | kw))
+
+
+def test_rows_metrics_failures_and_maps(tiny, tmp_path):
+    out = run_benchmark(_spec(tiny), tmp_path / "run", jobs=2, progress=False)
+    assert out.complete and (out.ok, out.failed, out.total) == (2, 4, 6)
+    rows = read_rows(tmp_path / "run")
+    assert len(rows) == 6
+    by = {(r["algo"], r["repeat"]): r for r in rows}
+    good = by[("fake_map", 1)]
+    for key in ("precision", "sensitivity", "f1", "tp", "fp", "fn", "precision_t1",
+                "sensitivity_t1", "precision_t2", "sensitivity_t2", "adnn_cells", "adnn_m",
+                "adnn_reverse_cells", "chamfer_cells", "align_x", "align_yaw", "ate_m",
+                "ate_start_m", "rpe_trans_m", "rpe_rot_rad", "wall_time_s", "realtime_factor"):
+        assert good[key] is not None, key
+    assert 0 < good["precision"] <= good["precision_t1"] <= good["precision_t2"] <= 1
+    assert (good["log_seed"], good["slam_seed"], good["status"]) == (0, 1, "ok")
+    assert set(good["versions"]) >= {"package", "sim", "numpy", "numba"}
+    assert by[("fake_raise", 0)]["status"] == "failed"
+    assert by[("fake_raise", 0)]["error"] == "RuntimeError: fake failure on scan 2"
+    assert by[("fake_diverge", 0)]["error"].startswith("diverged: pose")
+    with np.load(tmp_path / "run" / good["map_file"]) as z:
+        assert z["prob"].ndim == 2 and z["poses"].shape[1] == 3
+    run = json.loads((tmp_path / "run" / "run.json").read_text())
+    assert run["spec"]["repeats"] == 2 and "fake_map" in run["configs"]
+    # the same rows in this process as in two worker processes
+    inline = run_benchmark(_spec(tiny), tmp_path / "inline", jobs=1, progress=False)
+    assert inline.complete
+    assert comparable(read_rows(tmp_path / "inline")) == comparable(rows)
+
+
+def test_ctrl_c_then_resume_equals_uninterrupted(tiny, tmp_path):
+    spec = _spec(tiny, algos=("fake_interrupt", "fake_map"), repeats=3)
+    fakes.INTERRUPT.update(after=1, built=0)  # Ctrl-C in the second fake_interrupt run
+    try:
+        part = run_benchmark(spec, tmp_path / "a", jobs=1, progress=False)
+    finally:
+        fakes.INTERRUPT.update(after=None, built=0)
+    assert part.interrupted and 0 < part.ok < 6
+    assert len(read_rows(tmp_path / "a")) == part.ok
+    done = run_benchmark(spec, tmp_path / "a", jobs=1, progress=False, resume=True)
+    assert done.complete and done.ok == 6
+    full = run_benchmark(spec, tmp_path / "b", jobs=1, progress=False)
+    assert comparable(read_rows(tmp_path / "a")) == comparable(read_rows(tmp_path / "b"))
+    # resuming a complete run does nothing
+    again = run_benchmark(spec, tmp_path / "a", jobs=1, progress=False, resume=True)
+    assert again.complete and comparable(read_rows(tmp_path / "a")) == comparable(read_rows(tmp_path / "b"))
+    assert full.ok == 6
+
+
+def test_killed_process_then_resume_equals_uninterrupted(tiny, tmp_path):
+    cfg = tmp_path / "slow.yaml"
+    cfg.write_text("delay_s: 0.3\n")
+    args = ["run", "--world", tiny, "--algo", "fake_map", "--repeats", "8", "--jobs", "1",
+            "--config", f"fake_map={cfg}", "--no-figures"]
+    code = ("import sys; import tests.bench.fakes; from bench.__main__ import main; "
+            "sys.exit(main(sys.argv[1:]))")
+    env = dict(os.environ, PYTHONPATH=str(REPO))
+    proc = subprocess.Popen([sys.executable, "-c", code, *args, "--out", str(tmp_path / "killed")],
+                            cwd=REPO, env=env, stderr=subprocess.DEVNULL, stdout=subprocess.DEVNULL)
+    results = tmp_path / "killed" / "results.json"
+    deadline = time.monotonic() + 60
+    while time.monotonic() < deadline and proc.poll() is None:
+        if results.exists() and len(json.loads(results.read_text())["rows"]) >= 2:
+            break
+        time.sleep(0.05)
+    proc.send_signal(signal.SIGKILL)
+    proc.wait()
+    n = len(read_rows(tmp_path / "killed"))
+    assert n >= 2
+    resumed = subprocess.run([sys.executable, "-c", code, "run", "--resume", str(tmp_path / "killed"),
+                              "--jobs", "1", "--no-figures", "--no-progress"],
+                             cwd=REPO, env=env, capture_output=True, text=True)
+    assert resumed.returncode == 0, resumed.stderr
+    full = subprocess.run([sys.executable, "-c", code, *args, "--out", str(tmp_path / "full"),
+                           "--no-progress"], cwd=REPO, env=env, capture_output=True, text=True)
+    assert full.returncode == 0, full.stderr
+    a, b = read_rows(tmp_path / "killed"), read_rows(tmp_path / "full")
+    assert len(a) == 8 and comparable(a) == comparable(b)
+    assert [r["wall_time_s"] for r in a] != [None] * 8
+
+
+def test_vary_data_records_a_log_per_repeat(tiny, tmp_path):
+    spec = _spec(tiny, algos=("fake_map",), repeats=2, vary="data", seed=7)
+    out = run_benchmark(spec, tmp_path / "run", jobs=1, progress=False)
+    rows = read_rows(tmp_path / "run")
+    assert out.complete and [(r["log_seed"], r["slam_seed"]) for r in rows] == [(7, 7), (8, 7)]
+    assert rows[0]["precision"] != rows[1]["precision"] or rows[0]["ate_m"] != rows[1]["ate_m"]
+    import worlds
+    w = worlds.load_world(tiny)
+    assert cache.log_path(w, 7, "realistic", tiny).exists()
+    assert cache.log_path(w, 8, "realistic", tiny).exists()
+
+
+def test_cache_key_changes_with_world_file_and_seed(tiny, tmp_path):
+    import worlds
+    w = worlds.load_world(tiny)
+    k = cache.log_key(w, 0, "realistic", "1", tiny)
+    assert k == cache.log_key(w, 0, "realistic", "1", tiny)
+    assert k != cache.log_key(w, 1, "realistic", "1", tiny)
+    assert k != cache.log_key(w, 0, "ideal", "1", tiny)
+    assert k != cache.log_key(w, 0, "realistic", "2", tiny)
+    edited = tmp_path / "tiny.yaml"
+    edited.write_text(Path(tiny).read_text() + "\n# edited\n")
+    assert k != cache.log_key(w, 0, "realistic", "1", edited)
+
+
+def test_bad_input(tiny, tmp_path):
+    with pytest.raises(InputError, match="no such world"):
+        run_benchmark(_spec("nowhere_world"), tmp_path / "x", progress=False)
+    run_benchmark(_spec(tiny, algos=("fake_map",), repeats=1), tmp_path / "run", jobs=1,
+                  progress=False)
+    with pytest.raises(InputError, match="already holds another run's results"):
+        run_benchmark(_spec(tiny, algos=("fake_map",), repeats=1), tmp_path / "run", progress=False)
+    with pytest.raises(InputError, match="other arguments"):
+        run_benchmark(_spec(tiny, algos=("fake_map",), repeats=3), tmp_path / "run",
+                      progress=False, resume=True)
+    with pytest.raises(InputError, match="nothing to resume"):
+        run_benchmark(_spec(tiny), tmp_path / "empty", progress=False, resume=True)
