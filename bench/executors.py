@@ -97,7 +97,8 @@ class DaskExecutor:
         try:
             if address == "local":
                 self._cluster = LocalCluster(n_workers=jobs or os.cpu_count() or 1,
-                                             threads_per_worker=1, processes=True)
+                                             threads_per_worker=1, processes=True,
+                                             dashboard_address=":0")
                 self.client = Client(self._cluster)
             else:
                 self.client = Client(address, timeout="20s")
