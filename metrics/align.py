@@ -93,8 +93,25 @@ def _cost(pts, truth, pose, cut):
     return float(np.mean(np.minimum(d, cut) ** 2))
 
 
-# half-cell moves tried after convergence, see icp()
-_HALF_STEPS = [(dx, dy) for dx in (-0.5, 0.0, 0.5) for dy in (-0.5, 0.0, 0.5) if dx or dy]
+# half-cell moves tried after convergence (x, y in cells, turn in half-cell arcs), see icp()
+_HALF_STEPS = [(dx, dy, da) for dx in (-0.5, 0.0, 0.5) for dy in (-0.5, 0.0, 0.5)
+               for da in (-1, 0, 1) if dx or dy or da]
+
+
+def _half_cell_moves(pts: np.ndarray, pose: np.ndarray, res: float) -> list[np.ndarray]:
+    """Poses moved by half a cell and/or turned (about the centroid) by half a cell's arc."""
+    moved = transform_points(pose, pts)
+    c = moved.mean(0)
+    rms_radius = max(float(np.sqrt(np.mean(np.sum((moved - c) ** 2, 1)))), res)
+    turn = 0.5 * res / rms_radius
+    out = []
+    for dx, dy, da in _HALF_STEPS:
+        a = da * turn
+        ca, sa = np.cos(a), np.sin(a)
+        # rotate by a about c, then shift: x -> R (x - c) + c + d
+        t = c - np.array([ca * c[0] - sa * c[1], sa * c[0] + ca * c[1]]) + np.array([dx, dy]) * res
+        out.append(compose(np.array([t[0], t[1], a]), pose))
+    return out
 
 
 def icp(pts: np.ndarray, truth: PreparedTruth, initial: np.ndarray,
@@ -116,7 +133,7 @@ def icp(pts: np.ndarray, truth: PreparedTruth, initial: np.ndarray,
     pose, total = _icp_loop(pts, truth, pose, cfg.icp_start_cells * res, final, radius, cfg)
     for _ in range(3):
         cost = _cost(pts, truth, pose, final)
-        trials = [compose(np.array([dx * res, dy * res, 0.0]), pose) for dx, dy in _HALF_STEPS]
+        trials = _half_cell_moves(pts, pose, res)
         costs = [_cost(pts, truth, p, final) for p in trials]
         k = int(np.argmin(costs))
         if not costs[k] < 0.98 * cost:
