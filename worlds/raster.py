@@ -2,18 +2,22 @@
 
 The rule (one convention everywhere: a point (x, y) lies in cell
 (floor((y - oy) / res), floor((x - ox) / res)), the convention of ray insertion):
-  - solid cell: its centre lies inside the solid (the union of walls and obstacles);
-  - free (0.0): a non-solid cell whose centre lies in World.free_space, 4-connected to the
-    cell holding the start pose (flood fill) -- the space the robot can see into;
-  - occupied (1.0): a solid cell with a free cell among its 8 neighbours -- the wall
-    surface a lidar can see; a beam ending on a wall surface lands in the cell holding
-    that surface point, and with surfaces kept away from cell edges that cell's centre is
-    inside the solid, so the cells a perfect lidar hits are exactly these cells (the
-    diagonal neighbour matters at inside corners, whose corner cell beams reach);
+  - occupied (1.0): a cell holding a point of a wall surface that faces the free space
+    around the start (the boundary of World.free_space). A lidar beam ends on such a
+    surface point, so these are exactly the cells a perfect lidar can hit, whatever the
+    walls' angles. The surfaces are sampled every resolution / 16 m, so a cell the
+    surface only clips at a corner by less than ~3 mm may be left out (a beam would
+    almost never end there either).
+  - free (0.0): any other cell whose centre lies in World.free_space and that is
+    4-connected to the cell holding the start pose (flood fill);
   - unknown (NaN): everything else (wall interiors, the outside, unreachable rooms).
+For surfaces that run along the grid axes and lie less than half a cell inside their
+cell on the solid side -- the shipped worlds put every surface 0.015 m past a cell edge,
+e.g. a wall 0.12 m thick centred on x = 1.025 has surfaces at 0.965 and 1.085 -- this is
+the same as "cells whose centre is inside the solid and that border (8-neighbourhood)
+a free cell", which the tests check.
 The grid covers the solid's bounds plus a margin of `MARGIN_CELLS` cells; its origin is a
-multiple of the resolution, so cell edges lie on multiples of the resolution (the shipped
-worlds put wall surfaces 0.015 m from those edges, on the solid side of cell centres).
+multiple of the resolution, so cell edges lie on multiples of the resolution.
 """
 from __future__ import annotations
 
@@ -27,11 +31,10 @@ from worlds.grid import Grid
 from worlds.model import World
 from worlds.yamlio import InputError
 
-__all__ = ["rasterize", "grid_frame", "cell_centres", "MARGIN_CELLS"]
+__all__ = ["rasterize", "grid_frame", "cell_centres", "surface_points", "MARGIN_CELLS"]
 
 MARGIN_CELLS = 3
 _FOUR = ndimage.generate_binary_structure(2, 1)
-_EIGHT = ndimage.generate_binary_structure(2, 2)
 
 
 def _snap(v: float) -> float:
@@ -69,19 +72,33 @@ def rasterize(world: World, resolution: float | None = None) -> Grid:
     """
     ox, oy, res, rows, cols = grid_frame(world, resolution)
     X, Y = cell_centres(ox, oy, res, rows, cols)
-    solid_geom = world.solid
-    shapely.prepare(solid_geom)
-    solid = shapely.contains_xy(solid_geom, X, Y)
     free_geom = world.free_space
+    prob = np.full((rows, cols), np.nan)
+    if free_geom.is_empty:
+        return Grid(prob, res, np.array([ox, oy, 0.0]))
+    surface = np.zeros((rows, cols), dtype=bool)
+    pts = surface_points(free_geom, res / 16.0)
+    sr = np.floor((pts[:, 1] - oy) / res).astype(np.int64)
+    sc = np.floor((pts[:, 0] - ox) / res).astype(np.int64)
+    surface[sr, sc] = True
     shapely.prepare(free_geom)
-    open_ = shapely.contains_xy(free_geom, X, Y) & ~solid
+    open_ = shapely.contains_xy(free_geom, X, Y) & ~surface
     r = int(math.floor((world.start[1] - oy) / res))
     c = int(math.floor((world.start[0] - ox) / res))
     labels, _ = ndimage.label(open_, structure=_FOUR)
-    prob = np.full((rows, cols), np.nan)
     if 0 <= r < rows and 0 <= c < cols and labels[r, c] > 0:
-        free = labels == labels[r, c]
-        occupied = solid & ndimage.binary_dilation(free, structure=_EIGHT)
-        prob[free] = 0.0
-        prob[occupied] = 1.0
+        prob[labels == labels[r, c]] = 0.0
+    prob[surface] = 1.0
     return Grid(prob, res, np.array([ox, oy, 0.0]))
+
+
+def surface_points(region, step: float) -> np.ndarray:
+    """(N, 2) points every <= step m along the boundary rings of a shapely polygon (m)."""
+    out = []
+    for poly in getattr(region, "geoms", [region]):
+        for ring in [poly.exterior, *poly.interiors]:
+            xy = np.asarray(ring.coords)
+            for a, b in zip(xy[:-1], xy[1:]):
+                n = max(1, int(math.ceil(np.hypot(*(b - a)) / step)))
+                out.append(a + (np.arange(n + 1)[:, None] / n) * (b - a))
+    return np.vstack(out) if out else np.zeros((0, 2))
