@@ -72,14 +72,15 @@ class PurePursuit:
     def _progress(self, x: float, y: float) -> float:
         """Arc length of the closest path point within [s, s + search_window]."""
         lo = max(int(np.searchsorted(self.cum, self.s, side="right")) - 1, 0)
+        lo = min(lo, len(self.seg_len) - 1)
         hi = int(np.searchsorted(self.cum, self.s + self.cfg.search_window, side="right"))
+        hi = min(max(hi, lo + 1), len(self.seg_len))     # segments lo .. hi-1
         p0 = self.path[lo:hi]
         seg = self.path[lo + 1:hi + 1] - p0
-        n = len(seg)
-        seg_len = self.seg_len[lo:lo + n]
-        f = np.clip(((x - p0[:n, 0]) * seg[:, 0] + (y - p0[:n, 1]) * seg[:, 1]) / seg_len ** 2, 0, 1)
-        d2 = (p0[:n, 0] + f * seg[:, 0] - x) ** 2 + (p0[:n, 1] + f * seg[:, 1] - y) ** 2
-        s_cand = self.cum[lo:lo + n] + f * seg_len
+        seg_len = self.seg_len[lo:hi]
+        f = np.clip(((x - p0[:, 0]) * seg[:, 0] + (y - p0[:, 1]) * seg[:, 1]) / seg_len ** 2, 0, 1)
+        d2 = (p0[:, 0] + f * seg[:, 0] - x) ** 2 + (p0[:, 1] + f * seg[:, 1] - y) ** 2
+        s_cand = self.cum[lo:hi] + f * seg_len
         s_cand = np.minimum(s_cand, self.s + self.cfg.search_window)
         ok = s_cand >= self.s
         if not ok.any():

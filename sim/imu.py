@@ -51,5 +51,6 @@ def simulate_imu(gt_pose: np.ndarray, physics_dt: float, every: int, noise: ImuN
     gyro = rate[idx] + channel_noise(len(idx), dt, noise.gyro, g_rng)
     accel = acc[idx] + np.stack([channel_noise(len(idx), dt, noise.accel, ax_rng),
                                  channel_noise(len(idx), dt, noise.accel, ay_rng)], axis=1)
-    yaw = start_yaw + np.concatenate([[0.0], np.cumsum(gyro[1:] * dt)])
+    # trapezoidal integration, as an on-board attitude filter between samples
+    yaw = start_yaw + np.concatenate([[0.0], np.cumsum(0.5 * (gyro[1:] + gyro[:-1]) * dt)])
     return idx, gyro, accel, np.mod(yaw + np.pi, 2 * np.pi) - np.pi

@@ -32,7 +32,7 @@ def wheel_angles_at(times: np.ndarray, step_t: np.ndarray, wheel_speed: np.ndarr
 def encoder_ticks(angles: np.ndarray, ticks_per_rev: int) -> np.ndarray:
     """Tick counts (same shape, int64) of cumulative wheel angles (rad): the encoder
     reports whole ticks only."""
-    # a relative epsilon keeps exact multiples of a tick from flipping on round-off
+    # the small epsilon (in ticks) keeps exact multiples of a tick from flipping on round-off
     return np.floor(np.asarray(angles) * (ticks_per_rev / (2 * np.pi)) + 1e-9).astype(np.int64)
 
 

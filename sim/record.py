@@ -138,7 +138,10 @@ def _drive(world: World, route: np.ndarray, cfg: RecordConfig, noise: NoiseProfi
             gt.append((p.x, p.y, body.angle))
     gt = np.asarray(gt, dtype=np.float64)
     wheel = np.asarray(wheel, dtype=np.float64).reshape(-1, 2)
-    step_t = np.arange(len(wheel) + 1) * dt_c
+    # Chipmunk integrates positions before it solves the joints, so the body answers a
+    # command one physics step later: the wheels turn (and the encoders count) in step
+    # with the body, i.e. one step after the command.
+    step_t = np.arange(len(wheel) + 1) * dt_c + dt
     return gt, step_t, wheel, ending
 
 

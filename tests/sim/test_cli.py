@@ -1,0 +1,127 @@
+import json
+import zipfile
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from sim.__main__ import main
+from sim.log import read_log
+
+ROOM = """name: cli_room
+walls:
+  thickness: 0.1
+  polylines:
+    - [[0, 0], [3, 0], [3, 3], [0, 3], [0, 0]]
+robot:
+  start: [0.6, 0.6, 0.0]
+route:
+  - [2.2, 0.6]
+  - [2.2, 2.0]
+"""
+
+
+@pytest.fixture
+def room_yaml(tmp_path):
+    p = tmp_path / "room.yaml"
+    p.write_text(ROOM)
+    return p
+
+
+def _error_line(capsys):
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("error: ")
+    return err[0]
+
+
+def test_record_and_show(tmp_path, room_yaml, capsys):
+    pytest.importorskip("worlds.load")
+    out = tmp_path / "log.npz"
+    assert main(["record", "--world", str(room_yaml), "--seed", "2", "--out", str(out),
+                 "--noise", "gazebo"]) == 0
+    log = read_log(out)
+    assert log.meta["world"] == "cli_room" and log.meta["noise"]["name"] == "gazebo"
+    assert log.n_scans > 10 and log.has_odometry and log.has_imu and log.has_ground_truth
+    assert main(["show", str(out), "--out", str(tmp_path / "paths.png")]) == 0
+    assert (tmp_path / "paths.png").stat().st_size > 1000
+    assert main(["show", str(out)]) == 0                     # default: beside the log
+    assert out.with_suffix(".png").exists()
+
+
+def test_record_with_config_file(tmp_path, room_yaml):
+    pytest.importorskip("worlds.load")
+    cfg = tmp_path / "rec.yaml"
+    cfg.write_text("lidar: {beams: 90}\n")
+    out = tmp_path / "log.npz"
+    assert main(["record", "--world", str(room_yaml), "--out", str(out), "--config", str(cfg),
+                 "--noise", "ideal"]) == 0
+    assert read_log(out).scan_ranges.shape[1] == 90
+
+
+def test_unknown_profile_name(tmp_path, room_yaml, capsys):
+    assert main(["record", "--world", str(room_yaml), "--out", str(tmp_path / "x.npz"),
+                 "--noise", "noisy"]) == 2
+    assert "unknown noise profile 'noisy'" in _error_line(capsys)
+    assert not (tmp_path / "x.npz").exists()
+
+
+def test_profile_with_a_wrong_key(tmp_path, room_yaml, capsys):
+    prof = tmp_path / "prof.yaml"
+    prof.write_text("imu: {gyro: {densty: 1.0e-4}}\n")
+    assert main(["record", "--world", str(room_yaml), "--out", str(tmp_path / "x.npz"),
+                 "--noise", str(prof)]) == 2
+    line = _error_line(capsys)
+    assert "prof.yaml" in line and "imu.gyro.densty: unknown key" in line and "density" in line
+
+
+def test_unknown_world(tmp_path, capsys):
+    assert main(["record", "--world", "atlantis", "--out", str(tmp_path / "x.npz")]) == 2
+    assert "atlantis" in _error_line(capsys)
+
+
+def _good_log(tmp_path, room_yaml):
+    out = tmp_path / "good.npz"
+    assert main(["record", "--world", str(room_yaml), "--out", str(out), "--noise", "ideal"]) == 0
+    return out
+
+
+def test_unreadable_truncated_and_newer_logs(tmp_path, room_yaml, capsys):
+    pytest.importorskip("worlds.load")
+    good = _good_log(tmp_path, room_yaml)
+    capsys.readouterr()
+    garbage = tmp_path / "garbage.npz"
+    garbage.write_bytes(b"not a zip file at all")
+    assert main(["show", str(garbage)]) == 2
+    assert "garbage.npz" in _error_line(capsys)
+
+    data = good.read_bytes()
+    trunc = tmp_path / "trunc.npz"
+    trunc.write_bytes(data[: len(data) // 2])
+    assert main(["show", str(trunc)]) == 2
+    assert "trunc.npz" in _error_line(capsys)
+
+    assert main(["show", str(tmp_path / "missing.npz")]) == 2
+    assert "file not found" in _error_line(capsys)
+
+    # a log written by a newer version of the format
+    newer = tmp_path / "newer.npz"
+    with zipfile.ZipFile(good) as zin, zipfile.ZipFile(newer, "w") as zout:
+        for item in zin.infolist():
+            raw = zin.read(item)
+            if item.filename == "meta.npy":
+                import io
+                meta = json.loads(str(np.load(io.BytesIO(raw)).reshape(-1)[0]))
+                meta["format_version"] = 99
+                buf = io.BytesIO()
+                np.save(buf, np.array([json.dumps(meta)]))
+                raw = buf.getvalue()
+            zout.writestr(item, raw)
+    assert main(["show", str(newer)]) == 2
+    line = _error_line(capsys)
+    assert "format_version" in line and "99" in line and "newer" in line
+
+
+def test_import_of_a_missing_file(tmp_path, capsys):
+    pytest.importorskip("sim.importers")
+    assert main(["import", str(tmp_path / "nothing.log"), "--out", str(tmp_path / "x.npz")]) == 2
+    assert "nothing.log" in _error_line(capsys)
