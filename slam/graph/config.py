@@ -1,0 +1,173 @@
+"""GraphConfig: the options of the pose-graph SLAM, shaped like Cartographer's Lua options.
+
+Each field names the Cartographer option it stands for (TRAJECTORY_BUILDER_2D.* for the local
+SLAM, POSE_GRAPH.* for the global SLAM). Values are Cartographer's 2D defaults
+(trajectory_builder_2d.lua, pose_graph.lua) except where the TurtleBot3 configuration
+(turtlebot3_cartographer/config/turtlebot3_lds_2d.lua) overrides them for its LDS-01 lidar:
+min_range 0.12, max_range 3.5, missing_data_ray_length 3.0, use_imu_data true,
+use_online_correlative_scan_matching true, constraint_builder.min_score 0.65. Deviations of
+ours are marked "ours".
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+__all__ = ["GraphConfig", "LocalConfig", "GlobalConfig", "MotionFilterConfig", "SubmapsConfig",
+           "RealTimeCorrelativeConfig", "CeresScanMatcherConfig", "FastCorrelativeConfig",
+           "ConstraintBuilderConfig", "OptimizationConfig", "AdaptiveVoxelConfig"]
+
+
+def _positive(obj, *names):
+    for n in names:
+        if not getattr(obj, n) > 0:
+            raise ValueError(f"{n} must be positive, got {getattr(obj, n)}")
+
+
+@dataclass(frozen=True)
+class MotionFilterConfig:
+    """TRAJECTORY_BUILDER_2D.motion_filter: a scan becomes a node only after this much motion."""
+
+    max_time_seconds: float = 5.0
+    max_distance_meters: float = 0.2
+    max_angle_radians: float = math.radians(1.0)   # TB3 sets math.rad(0.1); the default suits 5 Hz
+
+
+@dataclass(frozen=True)
+class AdaptiveVoxelConfig:
+    """TRAJECTORY_BUILDER_2D.adaptive_voxel_filter (and loop_closure_adaptive_voxel_filter)."""
+
+    max_length: float = 0.5          # m, largest voxel tried
+    min_num_points: int = 200        # smallest voxel that keeps at least this many points
+    max_range: float = 50.0          # m, points farther are dropped
+
+
+@dataclass(frozen=True)
+class RealTimeCorrelativeConfig:
+    """TRAJECTORY_BUILDER_2D.real_time_correlative_scan_matcher (Olson's exhaustive search)."""
+
+    linear_search_window: float = 0.1
+    angular_search_window: float = math.radians(20.0)
+    translation_delta_cost_weight: float = 1e-1
+    rotation_delta_cost_weight: float = 1e-1
+
+
+@dataclass(frozen=True)
+class CeresScanMatcherConfig:
+    """TRAJECTORY_BUILDER_2D.ceres_scan_matcher: least squares on the interpolated grid."""
+
+    occupied_space_weight: float = 1.0
+    translation_weight: float = 10.0
+    rotation_weight: float = 40.0
+    max_num_iterations: int = 20     # ceres_solver_options.max_num_iterations
+
+
+@dataclass(frozen=True)
+class SubmapsConfig:
+    """TRAJECTORY_BUILDER_2D.submaps: probability-grid submaps, two active at a time."""
+
+    num_range_data: int = 90
+    resolution: float = 0.05                 # grid_options_2d.resolution, m
+    hit_probability: float = 0.55            # range_data_inserter.probability_grid_inserter_options_2d
+    miss_probability: float = 0.49
+    insert_free_space: bool = True
+    min_probability: float = 0.1             # Cartographer's kMinProbability / kMaxProbability clamp
+    max_probability: float = 0.9
+
+    def __post_init__(self):
+        _positive(self, "num_range_data", "resolution")
+        for n in ("hit_probability", "miss_probability", "min_probability", "max_probability"):
+            if not 0.0 < getattr(self, n) < 1.0:
+                raise ValueError(f"{n} must lie in (0, 1), got {getattr(self, n)}")
+
+
+@dataclass(frozen=True)
+class LocalConfig:
+    """TRAJECTORY_BUILDER_2D: scan-to-submap matching (local SLAM)."""
+
+    min_range: float = 0.12                  # TB3
+    max_range: float = 3.5                   # TB3
+    missing_data_ray_length: float = 3.0     # TB3; no-return beams free space up to this range
+    voxel_filter_size: float = 0.025
+    use_imu_data: bool = True                # TB3: yaw rate from the gyro in the extrapolator
+    use_odometry: bool = True                # cartographer_ros options.use_odometry (TB3: false
+                                             # with the LDS only; the simulated robot has wheels)
+    use_online_correlative_scan_matching: bool = True   # TB3
+    deskew: bool = True                      # ours: undo motion during the 0.2 s revolution
+    motion_filter: MotionFilterConfig = field(default_factory=MotionFilterConfig)
+    adaptive_voxel_filter: AdaptiveVoxelConfig = field(default_factory=AdaptiveVoxelConfig)
+    real_time_correlative_scan_matcher: RealTimeCorrelativeConfig = field(
+        default_factory=RealTimeCorrelativeConfig)
+    ceres_scan_matcher: CeresScanMatcherConfig = field(default_factory=CeresScanMatcherConfig)
+    submaps: SubmapsConfig = field(default_factory=SubmapsConfig)
+
+    def __post_init__(self):
+        _positive(self, "max_range", "voxel_filter_size")
+
+
+@dataclass(frozen=True)
+class FastCorrelativeConfig:
+    """POSE_GRAPH.constraint_builder.fast_correlative_scan_matcher (branch and bound)."""
+
+    linear_search_window: float = 7.0
+    angular_search_window: float = math.radians(30.0)
+    branch_and_bound_depth: int = 7
+
+
+@dataclass(frozen=True)
+class ConstraintBuilderConfig:
+    """POSE_GRAPH.constraint_builder: loop-closure search between nodes and finished submaps."""
+
+    sampling_ratio: float = 0.3
+    max_constraint_distance: float = 15.0
+    min_score: float = 0.65                  # TB3 (Cartographer default 0.55)
+    loop_closure_translation_weight: float = 1.1e4
+    loop_closure_rotation_weight: float = 1e5
+    fast_correlative_scan_matcher: FastCorrelativeConfig = field(default_factory=FastCorrelativeConfig)
+    ceres_scan_matcher: CeresScanMatcherConfig = field(default_factory=lambda: CeresScanMatcherConfig(
+        occupied_space_weight=20.0, translation_weight=10.0, rotation_weight=1.0, max_num_iterations=10))
+    loop_closure_adaptive_voxel_filter: AdaptiveVoxelConfig = field(
+        default_factory=lambda: AdaptiveVoxelConfig(max_length=0.9, min_num_points=100))
+
+
+@dataclass(frozen=True)
+class OptimizationConfig:
+    """POSE_GRAPH.optimization_problem: sparse pose adjustment."""
+
+    huber_scale: float = 1e1
+    local_slam_pose_translation_weight: float = 1e5
+    local_slam_pose_rotation_weight: float = 1e5
+    max_num_iterations: int = 50             # ceres_solver_options.max_num_iterations
+
+
+@dataclass(frozen=True)
+class GlobalConfig:
+    """POSE_GRAPH: loop closure and optimization."""
+
+    enable_loop_closure: bool = True         # ours: false = no constraint search (local SLAM + SPA)
+    optimize_every_n_nodes: int = 90
+    matcher_translation_weight: float = 5e2  # weights of the intra-submap (local) constraints
+    matcher_rotation_weight: float = 1.6e3
+    constraint_builder: ConstraintBuilderConfig = field(default_factory=ConstraintBuilderConfig)
+    optimization_problem: OptimizationConfig = field(default_factory=OptimizationConfig)
+
+
+@dataclass(frozen=True)
+class GraphConfig:
+    """The pose-graph SLAM: local SLAM (trajectory_builder) + global SLAM (pose_graph)."""
+
+    trajectory_builder: LocalConfig = field(default_factory=LocalConfig)
+    pose_graph: GlobalConfig = field(default_factory=GlobalConfig)
+    map_resolution: float = 0.05             # ours: resolution of the final composed map, m
+    final_map: str = "sharpened"             # ours: "probability" (submap odds) or "sharpened"
+                                             # (see slam/graph/final_map.py)
+    map_near_range: float = 0.5              # ours, sharpened: rays up to this range weigh 1
+    map_suppress_ratio: float = 0.4          # ours, sharpened: 3x3 non-maximum suppression ratio
+    map_max_range: float = 0.0               # ours: hits farther than this (m) from the lidar are
+                                             # left out of the final map (0 = all); the LDS-01's
+                                             # error grows with range (5 % beyond 0.5 m)
+
+    def __post_init__(self):
+        if self.final_map not in ("probability", "sharpened"):
+            raise ValueError(f"final_map must be 'probability' or 'sharpened', got {self.final_map!r}")
+        _positive(self, "map_resolution", "map_near_range")

@@ -1,0 +1,48 @@
+"""Point filters of Cartographer's local SLAM: voxel filter and adaptive voxel filter."""
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["voxel_filter", "adaptive_voxel_filter"]
+
+
+def voxel_filter(points: np.ndarray, size: float) -> np.ndarray:
+    """(N, 2) m -> the first point of each occupied voxel of `size` m, in input order."""
+    points = np.asarray(points, dtype=np.float64).reshape(-1, 2)
+    if len(points) == 0 or size <= 0:
+        return points
+    keys = np.floor(points / size).astype(np.int64)
+    _, first = np.unique(keys, axis=0, return_index=True)
+    return points[np.sort(first)]
+
+
+def adaptive_voxel_filter(points: np.ndarray, max_length: float, min_num_points: int,
+                          max_range: float) -> np.ndarray:
+    """Cartographer's AdaptiveVoxelFilter: the largest voxel size <= max_length that keeps at
+    least min_num_points points (bisection over the size), after dropping points beyond
+    max_range (m). Few points in, all of them out."""
+    points = np.asarray(points, dtype=np.float64).reshape(-1, 2)
+    points = points[np.hypot(points[:, 0], points[:, 1]) <= max_range]
+    if len(points) <= min_num_points:
+        return points
+    result = voxel_filter(points, max_length)
+    if len(result) >= min_num_points:
+        return result
+    hi, lo = max_length, max_length / 2
+    # Halve until enough points survive, then bisect between the two sizes (as Cartographer).
+    while lo > 1e-3:
+        cand = voxel_filter(points, lo)
+        if len(cand) >= min_num_points:
+            result = cand
+            break
+        hi, lo = lo, lo / 2
+    else:
+        return points
+    for _ in range(5):
+        mid = 0.5 * (lo + hi)
+        cand = voxel_filter(points, mid)
+        if len(cand) >= min_num_points:
+            result, lo = cand, mid
+        else:
+            hi = mid
+    return result

@@ -1,0 +1,126 @@
+"""Local SLAM of the pose-graph SLAM (Cartographer's LocalTrajectoryBuilder2D).
+
+Per scan: extrapolate the pose (wheel odometry for translation, the gyro for rotation, or a
+constant velocity without either), clean and de-skew the scan, match it against the older
+active submap (optional real-time correlative search, then least squares on the interpolated
+probability grid with translation and rotation weights), and, if the motion filter lets it
+through, insert it into both active submaps and hand it to the global SLAM as a node.
+All poses here are in the local frame, which starts at the start pose.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from slam.base import ImuWindow, OdomDelta, Scan
+from slam.pose import compose, relative, transform_points, wrap_angle
+from slam.preprocess import PreprocessConfig, preprocess
+from slam.graph.config import LocalConfig, MotionFilterConfig
+from slam.graph.filters import adaptive_voxel_filter, voxel_filter
+from slam.graph.scan_matching import ceres_match, real_time_correlative_match
+from slam.graph.submaps import ActiveSubmaps
+
+__all__ = ["LocalSlam", "LocalResult", "MotionFilter"]
+
+
+@dataclass(frozen=True, eq=False)
+class LocalResult:
+    """What the local SLAM made of one scan.
+
+    pose: (3,) matched pose, local frame. If the scan became a node: hits, misses ((N, 2),
+    (M, 2) robot frame m, as inserted), origin (2,) lidar position in the robot frame,
+    inserted_into / created / finished: submap indices.
+    """
+
+    pose: np.ndarray
+    is_node: bool
+    hits: np.ndarray | None = None
+    misses: np.ndarray | None = None
+    origin: np.ndarray | None = None
+    inserted_into: tuple = ()
+    created: tuple = ()
+    finished: tuple = ()
+
+
+class MotionFilter:
+    """Cartographer's MotionFilter: pass a pose only after enough time, distance or rotation."""
+
+    def __init__(self, cfg: MotionFilterConfig):
+        self.cfg = cfg
+        self.last_t: float | None = None
+        self.last_pose: np.ndarray | None = None
+
+    def is_similar(self, t: float, pose: np.ndarray) -> bool:
+        """True (drop the scan) when close to the last passed pose; else remember this one."""
+        if self.last_pose is not None:
+            d = relative(self.last_pose, pose)
+            if (t - self.last_t <= self.cfg.max_time_seconds
+                    and np.hypot(d[0], d[1]) <= self.cfg.max_distance_meters
+                    and abs(d[2]) <= self.cfg.max_angle_radians):
+                return True
+        self.last_t, self.last_pose = t, np.asarray(pose, float).copy()
+        return False
+
+
+class LocalSlam:
+    """Scan-to-submap matching with two active submaps."""
+
+    def __init__(self, cfg: LocalConfig, start: np.ndarray):
+        self.cfg = cfg
+        self.submaps = ActiveSubmaps(cfg.submaps)
+        self.motion_filter = MotionFilter(cfg.motion_filter)
+        self.pose = np.asarray(start, float).copy()
+        self.prev_pose = self.pose.copy()
+        self.t: float | None = None
+        self.prev_t: float | None = None
+        self.pre = PreprocessConfig(range_min=cfg.min_range, range_max=cfg.max_range, deskew=cfg.deskew,
+                                    free_range=cfg.missing_data_ray_length if cfg.submaps.insert_free_space else 0.0)
+
+    def _predict(self, scan: Scan, odom: OdomDelta | None, imu: ImuWindow | None) -> tuple[np.ndarray, np.ndarray]:
+        """(predicted pose (3,) with unwrapped yaw near the last one, twist (3,) for de-skew)."""
+        if self.t is None:
+            return self.pose.copy(), np.zeros(3)
+        dt = scan.t - self.t
+        if self.cfg.use_odometry and odom is not None:
+            delta = odom.delta
+        elif self.prev_t is not None and self.t > self.prev_t:
+            # Constant velocity from the last two matched poses (Cartographer's extrapolator
+            # without odometry).
+            delta = relative(self.prev_pose, self.pose) * (dt / (self.t - self.prev_t))
+        else:
+            delta = np.zeros(3)
+        if self.cfg.use_imu_data and imu is not None and len(imu.gyro):
+            delta = delta.copy()
+            delta[2] = float(np.mean(imu.gyro)) * dt
+        pred = compose(self.pose, delta)
+        pred[2] = self.pose[2] + wrap_angle(pred[2] - self.pose[2])
+        twist = delta / dt if dt > 0 else np.zeros(3)
+        return pred, twist
+
+    def add_scan(self, scan: Scan, odom: OdomDelta | None, imu: ImuWindow | None) -> LocalResult:
+        """Match one scan and insert it if it passes the motion filter."""
+        pred, twist = self._predict(scan, odom, imu)
+        sp = preprocess(scan, self.pre, twist)
+        hits = voxel_filter(sp.points, self.cfg.voxel_filter_size)
+        av = self.cfg.adaptive_voxel_filter
+        match_pts = adaptive_voxel_filter(hits, av.max_length, av.min_num_points, av.max_range)
+        submap = self.submaps.matching_submap()
+        pose = pred
+        if submap is not None and len(match_pts) >= 3:
+            prob, meta = submap.probabilities()
+            start = pred
+            if self.cfg.use_online_correlative_scan_matching:
+                start = real_time_correlative_match(prob, meta, match_pts, pred,
+                                                    self.cfg.real_time_correlative_scan_matcher)
+            pose = ceres_match(prob, meta, match_pts, start, pred, self.cfg.ceres_scan_matcher)
+        pose = np.array([pose[0], pose[1], wrap_angle(pose[2])])
+        self.prev_pose, self.prev_t = self.pose, self.t
+        self.pose, self.t = pose, scan.t
+        if self.motion_filter.is_similar(scan.t, pose):
+            return LocalResult(pose, False)
+        origin_w = transform_points(pose, sp.origin[None, :])[0]
+        inserted, created, finished = self.submaps.insert(
+            origin_w, transform_points(pose, hits), transform_points(pose, sp.misses))
+        return LocalResult(pose, True, hits, sp.misses, sp.origin, tuple(inserted), tuple(created),
+                           tuple(finished))

@@ -1,0 +1,100 @@
+"""Scan matchers of the pose-graph SLAM, one per function (Hess et al. 2016, Sec. IV-C and V).
+
+- real_time_correlative_match: exhaustive search over a small window around the prediction,
+  scores weighted by a penalty on the distance from it (Cartographer's
+  RealTimeCorrelativeScanMatcher2D).
+- ceres_match: least squares on the interpolated grid (CeresScanMatcher2D).
+- FastCorrelativeMatcher: precomputation grids of one finished submap plus the
+  branch-and-bound search over a large window (FastCorrelativeScanMatcher2D).
+
+Grids: (rows, cols) probabilities, unknown = Cartographer's min probability, with meta
+(5,) [ox, oy, resolution, rows, cols]; points: (N, 2) m in the robot frame; poses (3,).
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from slam._kernels.correlative import bnb_search, max_grids, score_candidates
+from slam._kernels.graph_match import match_lm
+from slam.graph.config import CeresScanMatcherConfig, FastCorrelativeConfig, RealTimeCorrelativeConfig
+
+__all__ = ["angular_step", "discretize", "real_time_correlative_match", "ceres_match",
+           "FastCorrelativeMatcher"]
+
+
+def angular_step(points: np.ndarray, resolution: float) -> float:
+    """Rotation step (rad) that moves the farthest point by about one cell (Cartographer's
+    SearchParameters: acos(1 - res^2 / (2 r_max^2)))."""
+    r = float(np.max(np.hypot(points[:, 0], points[:, 1]))) if len(points) else 1.0
+    r = max(r, resolution)
+    return math.acos(max(-1.0, 1.0 - resolution ** 2 / (2.0 * r * r)))
+
+
+def discretize(points: np.ndarray, pose: np.ndarray, yaws: np.ndarray, meta: np.ndarray) -> np.ndarray:
+    """(K, N, 2) int32 (col, row) cells of the points at translation pose[:2] and each yaw (K,)."""
+    c, s = np.cos(yaws)[:, None], np.sin(yaws)[:, None]
+    x = pose[0] + c * points[None, :, 0] - s * points[None, :, 1]
+    y = pose[1] + s * points[None, :, 0] + c * points[None, :, 1]
+    res = meta[2]
+    return np.ascontiguousarray(np.stack([np.floor((x - meta[0]) / res), np.floor((y - meta[1]) / res)],
+                                         axis=2).astype(np.int32))
+
+
+def _window(points, meta, linear, angular):
+    step = angular_step(points, meta[2])
+    n_ang = int(math.ceil(angular / step))
+    wxy = int(math.ceil(linear / meta[2]))
+    return step, n_ang, wxy
+
+
+def real_time_correlative_match(prob: np.ndarray, meta: np.ndarray, points: np.ndarray,
+                                pose: np.ndarray, cfg: RealTimeCorrelativeConfig) -> np.ndarray:
+    """Best pose (3,) of the exhaustive search around `pose` (x, y m, yaw rad)."""
+    step, n_ang, w = _window(points, meta, cfg.linear_search_window, cfg.angular_search_window)
+    offsets = np.arange(-n_ang, n_ang + 1) * step
+    cells = discretize(points, pose, pose[2] + offsets, meta)
+    scores = score_candidates(prob, cells, w, w)
+    res = meta[2]
+    d = np.arange(-w, w + 1) * res
+    dist = np.hypot(d[None, :, None], d[None, None, :])
+    penalty = np.exp(-(dist * cfg.translation_delta_cost_weight
+                       + np.abs(offsets)[:, None, None] * cfg.rotation_delta_cost_weight) ** 2)
+    k, a, b = np.unravel_index(int(np.argmax(scores * penalty)), scores.shape)
+    # The cell shift moves every point by whole cells: add it to the pose translation.
+    return np.array([pose[0] + d[b], pose[1] + d[a], pose[2] + offsets[k]])
+
+
+def ceres_match(prob: np.ndarray, meta: np.ndarray, points: np.ndarray, start: np.ndarray,
+                prior: np.ndarray, cfg: CeresScanMatcherConfig) -> np.ndarray:
+    """Pose (3,) from least squares started at `start`; translation pulled toward prior[:2],
+    rotation toward start[2] (as Cartographer's ceres matcher)."""
+    target = np.array([prior[0], prior[1], start[2]])
+    pose, _ = match_lm(prob, meta, np.ascontiguousarray(points, dtype=np.float64),
+                       np.asarray(start, np.float64), target, cfg.occupied_space_weight,
+                       cfg.translation_weight, cfg.rotation_weight, cfg.max_num_iterations)
+    return pose
+
+
+class FastCorrelativeMatcher:
+    """Branch-and-bound matcher of one (finished) submap grid."""
+
+    def __init__(self, prob: np.ndarray, meta: np.ndarray, cfg: FastCorrelativeConfig):
+        self.cfg = cfg
+        self.meta = np.asarray(meta, np.float64)
+        self.grids = max_grids(np.asarray(prob, np.float32), cfg.branch_and_bound_depth)
+
+    def match(self, points: np.ndarray, pose: np.ndarray, min_score: float) -> tuple[np.ndarray, float] | None:
+        """Search around `pose` (3,) in the submap's frame; (best pose, score) or None."""
+        if len(points) == 0:
+            return None
+        step, n_ang, w = _window(points, self.meta, self.cfg.linear_search_window,
+                                 self.cfg.angular_search_window)
+        offsets = np.arange(-n_ang, n_ang + 1) * step
+        cells = discretize(points, pose, pose[2] + offsets, self.meta)
+        k, dx, dy, score = bnb_search(self.grids, cells, w, w, min_score)
+        if k < 0:
+            return None
+        res = self.meta[2]
+        return np.array([pose[0] + dx * res, pose[1] + dy * res, pose[2] + offsets[k]]), float(score)

@@ -1,0 +1,89 @@
+"""Submaps of the local SLAM: probability grids of a fixed number of scans, two active.
+
+As Cartographer's ActiveSubmaps2D: every scan kept by the motion filter goes into both active
+submaps; when the newer one has num_range_data scans a new submap starts at the current
+pose and the older one, then holding 2 * num_range_data scans, is finished (no more
+insertions; the global SLAM searches it for loop closures). A submap's frame has the
+translation of its first scan and no rotation.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from slam.occupancy import LogOddsGrid, logodds
+from slam.graph.config import SubmapsConfig
+
+__all__ = ["Submap", "ActiveSubmaps"]
+
+
+class Submap:
+    """One probability-grid submap in the local frame.
+
+    local_pose: (3,) x, y, 0 of the submap frame in the local SLAM frame; grid: a LogOddsGrid
+    in local-frame coordinates (hit/miss odds of Cartographer's probability grid inserter).
+    """
+
+    def __init__(self, index: int, origin_xy: np.ndarray, cfg: SubmapsConfig):
+        self.index = index
+        self.local_pose = np.array([origin_xy[0], origin_xy[1], 0.0])
+        self.cfg = cfg
+        self.grid = LogOddsGrid(cfg.resolution, center=tuple(origin_xy[:2]),
+                                l_free=logodds(cfg.miss_probability), l_occ=logodds(cfg.hit_probability),
+                                l_min=logodds(cfg.min_probability), l_max=logodds(cfg.max_probability),
+                                block=32, size=8.0, margin=0.3)
+        self.num_range_data = 0
+        self.finished = False
+        self._cache = (-1, None)
+
+    def insert(self, origin_xy: np.ndarray, hits_xy: np.ndarray, misses_xy: np.ndarray) -> None:
+        """Insert one scan: origin (2,), hits (N, 2), misses (M, 2), all local frame m."""
+        if self.finished:
+            raise RuntimeError(f"submap {self.index} is finished")
+        pts = np.vstack([hits_xy, misses_xy]) if self.cfg.insert_free_space else hits_xy
+        mask = np.zeros(len(pts), bool)
+        mask[:len(hits_xy)] = True
+        self.grid.insert_scan(origin_xy, pts, mask)
+        self.num_range_data += 1
+
+    def probabilities(self) -> tuple[np.ndarray, np.ndarray]:
+        """((rows, cols) probabilities with unknown = min_probability, (5,) grid meta)."""
+        version, prob = self._cache
+        if version != self.grid.version:
+            prob = np.ascontiguousarray(self.grid.prob(unknown=self.cfg.min_probability))
+            self._cache = (self.grid.version, prob)
+        return prob, self.grid.meta
+
+
+class ActiveSubmaps:
+    """The two submaps scans are inserted into (Cartographer's ActiveSubmaps2D)."""
+
+    def __init__(self, cfg: SubmapsConfig):
+        self.cfg = cfg
+        self.all: list[Submap] = []
+        self.active: list[Submap] = []
+
+    def matching_submap(self) -> Submap | None:
+        """The submap scans are matched against: the older active one (the fuller)."""
+        return self.active[0] if self.active else None
+
+    def insert(self, origin_xy, hits_xy, misses_xy) -> tuple[list[int], list[int], list[int]]:
+        """Insert one scan (local frame). Returns (indices inserted into, new submap indices,
+        submaps finished by this insertion)."""
+        created, finished = [], []
+        if not self.active:
+            created.append(self._add(origin_xy))
+        inserted = [s.index for s in self.active]
+        for s in self.active:
+            s.insert(origin_xy, hits_xy, misses_xy)
+        if self.active[0].num_range_data >= 2 * self.cfg.num_range_data:
+            self.active[0].finished = True
+            finished.append(self.active.pop(0).index)
+        if self.active[-1].num_range_data >= self.cfg.num_range_data:
+            created.append(self._add(origin_xy))
+        return inserted, created, finished
+
+    def _add(self, origin_xy) -> int:
+        s = Submap(len(self.all), np.asarray(origin_xy, float), self.cfg)
+        self.all.append(s)
+        self.active.append(s)
+        return s.index
