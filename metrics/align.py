@@ -20,6 +20,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+import scipy.fft as sfft
 
 from metrics.trajectory import rigid_fit_2d
 from metrics.truth import PreparedTruth
@@ -35,7 +36,7 @@ MODES = ("auto", "none", "start", "icp", "global")
 class AlignConfig:
     """Alignment parameters; distances in true-map cells."""
 
-    rot_step_deg: float = 1.0         # rotation grid of the global search
+    rot_step_deg: float = 2.0         # rotation grid of the global search (ICP fixes +-1 deg)
     coarse_cells: float = 3.0         # global search translation cell, in true cells
     candidates: int = 4               # rotations refined by ICP in the global search
     icp_max_iter: int = 80
@@ -115,7 +116,7 @@ def _half_cell_moves(pts: np.ndarray, pose: np.ndarray, res: float) -> list[np.n
 
 
 def icp(pts: np.ndarray, truth: PreparedTruth, initial: np.ndarray,
-        cfg: AlignConfig = AlignConfig()) -> tuple[np.ndarray, int]:
+        cfg: AlignConfig = AlignConfig(), polish: bool = True) -> tuple[np.ndarray, int]:
     """Trimmed point-to-point ICP of estimated cell centres onto the true ones.
 
     pts: (N, 2) estimate occupied-cell centres, estimate world m; initial: (3,) start transform.
@@ -131,6 +132,15 @@ def icp(pts: np.ndarray, truth: PreparedTruth, initial: np.ndarray,
     radius = max(float(np.max(np.linalg.norm(pts - pts.mean(0), axis=1))), res)
     final = cfg.icp_final_cells * res
     pose, total = _icp_loop(pts, truth, pose, cfg.icp_start_cells * res, final, radius, cfg)
+    return polish_half_cells(pts, truth, pose, cfg, total) if polish else (pose, total)
+
+
+def polish_half_cells(pts: np.ndarray, truth: PreparedTruth, pose: np.ndarray,
+                      cfg: AlignConfig = AlignConfig(), total: int = 0) -> tuple[np.ndarray, int]:
+    """The half-cell escape of icp(): pose (3,) -> (better pose, iterations so far)."""
+    res = truth.resolution
+    final = cfg.icp_final_cells * res
+    radius = max(float(np.max(np.linalg.norm(pts - pts.mean(0), axis=1))), res)
     for _ in range(3):
         cost = _cost(pts, truth, pose, final)
         trials = _half_cell_moves(pts, pose, res)
@@ -160,22 +170,26 @@ def global_candidates(pts: np.ndarray, truth: PreparedTruth,
     q0 = pts - centre
     reach = float(np.max(np.linalg.norm(q0, axis=1))) + h
     k = int(np.ceil(2 * reach / h)) + 1
-    shape = (ht + k - 1, wt + k - 1)
+    shape = (sfft.next_fast_len(ht + k - 1, real=True), sfft.next_fast_len(wt + k - 1, real=True))
     spec = truth.spectrum(h, shape)
     angles = np.deg2rad(np.arange(0.0, 360.0, cfg.rot_step_deg))
     best = np.empty(len(angles))
     shifts = np.empty((len(angles), 2), dtype=np.int64)
-    for a_i, a in enumerate(angles):
-        c, s = np.cos(a), np.sin(a)
-        q = np.stack([c * q0[:, 0] - s * q0[:, 1], s * q0[:, 0] + c * q0[:, 1]], axis=1)
-        cells = np.floor((q + reach) / h).astype(np.int64)
-        np.clip(cells, 0, k - 1, out=cells)
-        img = np.bincount(cells[:, 1] * k + cells[:, 0], minlength=k * k).reshape(k, k)
+    batch = 24  # rotations per FFT call: fewer Python round trips, bounded memory
+    for b0 in range(0, len(angles), batch):
+        a = angles[b0:b0 + batch]
+        c, s = np.cos(a)[:, None], np.sin(a)[:, None]
+        qx = c * q0[:, 0] - s * q0[:, 1]
+        qy = s * q0[:, 0] + c * q0[:, 1]
+        cx = np.clip(np.floor((qx + reach) / h).astype(np.int64), 0, k - 1)
+        cy = np.clip(np.floor((qy + reach) / h).astype(np.int64), 0, k - 1)
+        flat_idx = (np.arange(len(a))[:, None] * k + cy) * k + cx
+        img = np.bincount(flat_idx.ravel(), minlength=len(a) * k * k).reshape(len(a), k, k)
         # full cross-correlation: corr[m] = sum_x img[x] score[x + m - (k - 1)]
-        corr = np.fft.irfft2(spec * np.fft.rfft2(img[::-1, ::-1], s=shape), s=shape)
-        flat = int(np.argmax(corr))
-        best[a_i] = corr.flat[flat]
-        shifts[a_i] = np.unravel_index(flat, shape)
+        corr = sfft.irfft2(spec * sfft.rfft2(img[:, ::-1, ::-1], s=shape), s=shape)
+        flat = corr.reshape(len(a), -1).argmax(axis=1)
+        best[b0:b0 + len(a)] = corr.reshape(len(a), -1)[np.arange(len(a)), flat]
+        shifts[b0:b0 + len(a)] = np.stack(np.unravel_index(flat, shape), axis=1)
     # local maxima over the circular rotation grid, best first
     n = len(angles)
     peaks = [i for i in range(n) if best[i] >= best[(i - 1) % n] and best[i] >= best[(i + 1) % n]]
@@ -215,11 +229,13 @@ def align_points(pts: np.ndarray, truth: PreparedTruth, mode: str = "auto",
     if mode == "icp":
         pose, it = icp(pts, truth, np.zeros(3) if prior is None else prior, cfg)
         return Alignment(pose, mode, *_fitness(pts, truth, pose, cut), iterations=it)
+    # the half-cell polish (the costly part of ICP) only for the winner
     best = None
     for cand in global_candidates(pts, truth, cfg):
-        pose, it = icp(pts, truth, cand, cfg)
+        pose, it = icp(pts, truth, cand, cfg, polish=False)
         frac, rms = _fitness(pts, truth, pose, cut)
         key = (round(frac, 6), -rms if np.isfinite(rms) else -np.inf)
         if best is None or key > best[0]:
-            best = (key, Alignment(pose, "global", frac, rms, iterations=it))
-    return best[1]
+            best = (key, pose, it)
+    pose, it = polish_half_cells(pts, truth, best[1], cfg, best[2])
+    return Alignment(pose, "global", *_fitness(pts, truth, pose, cut), iterations=it)

@@ -55,14 +55,14 @@ def test_global_recovers_random_rigid_transforms(seed):
     pts = est.occupied_xy()
     al = align_points(pts, truth, "global", None)
     assert al.mode == "global"
-    # the optimum ICP reaches when started at the true transform ...
-    best, _ = icp(pts, truth, pose)
-    assert yaw_error_deg(al.pose, best) < 0.05
-    assert rms_displacement(al.pose, best, truth.points) < 0.1 * RES
-    # ... differs from the true transform only by the rasterization of both maps (walls at
-    # random positions land up to half a cell off in each)
+    assert al.inlier_fraction > 0.99
+    # both maps are rasterized from walls at random positions, each wall up to half a cell off
+    # in each map, so the best fit of the cells may sit up to about a cell from the transform
     assert yaw_error_deg(al.pose, pose) < 0.5
     assert rms_displacement(al.pose, pose, truth.points) < 1.0 * RES
+    # and the fit is as tight as ICP started at the true transform finds
+    best, _ = icp(pts, truth, pose)
+    assert al.rms_m < 1.25 * align_points(pts, truth, "start", best).rms_m
 
 
 def test_global_candidates_contain_the_right_rotation():
