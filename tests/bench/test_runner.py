@@ -53,7 +53,9 @@ def test_rows_metrics_failures_and_maps(tiny, tmp_path):
 
 def test_ctrl_c_then_resume_equals_uninterrupted(tiny, tmp_path):
     spec = _spec(tiny, algos=("fake_interrupt", "fake_map"), repeats=3)
-    fakes.INTERRUPT.update(after=1, built=0)  # Ctrl-C in the second fake_interrupt run
+    import bench.task
+    bench.task._WARM.discard("fake_interrupt")
+    fakes.INTERRUPT.update(after=2, built=0)  # Ctrl-C after the warm-up and one timed run
     try:
         part = run_benchmark(spec, tmp_path / "a", jobs=1, progress=False)
     finally:
