@@ -3,7 +3,8 @@
   score      --map MAP.yaml --truth TRUTH.yaml [--align MODE] [--start X,Y,YAW|none]
              [--tolerance N] [--picture OUT.png] [--title TEXT] [--json]
   trajectory --est EST.tum --truth GT.tum [--segment M] [--json]
-  relations  --traj EST.tum --relations FILE [--json]
+  relations  --traj EST.tum --relations FILE [--odom LOG] [--lookup interpolate|exact] [--json]
+             (options and output are metrics.relations')
 
 User errors (missing or malformed files, an empty map) print one line `error: ...` and exit 2.
 """
@@ -74,9 +75,14 @@ def build_parser() -> argparse.ArgumentParser:
     t.add_argument("--json", action="store_true")
 
     r = sub.add_parser("relations", help="relations metric (Kuemmerle et al. 2009)")
-    r.add_argument("--traj", required=True, help="estimated trajectory (TUM)")
-    r.add_argument("--relations", required=True, help="relations file")
-    r.add_argument("--json", action="store_true")
+    try:  # the relations module owns its options (--odom, --lookup, ...)
+        from metrics.relations import add_relations_arguments
+    except ImportError:
+        r.add_argument("--traj", required=True, help="estimated trajectory (TUM)")
+        r.add_argument("--relations", required=True, help="relations file")
+        r.add_argument("--json", action="store_true")
+    else:
+        add_relations_arguments(r)
     return p
 
 
@@ -137,11 +143,10 @@ def _trajectory(args) -> int:
 
 def _relations(args) -> int:
     try:
-        from metrics.relations import relations_from_files
+        from metrics.relations import relations_main
     except ImportError as err:
         raise InputError(f"relations metric not available: {err}") from None
-    _print(relations_from_files(args.traj, args.relations), args.json)
-    return 0
+    return relations_main(args)
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -1,0 +1,130 @@
+"""python -m metrics: score / trajectory / relations on small files; bad input gives one line, exit 2."""
+import json
+
+import numpy as np
+import pytest
+
+from metrics.__main__ import main
+from metrics.tum import write_tum
+from tests.metrics.maps import ROOM, draw
+from worlds.grid import Grid
+from worlds.mapio import write_map
+
+CONTRACT = {"precision", "sensitivity", "f1", "tp", "fp", "fn", "adnn_cells", "adnn_m", "align",
+            "adnn_reverse_cells", "adnn_reverse_m", "chamfer_cells", "align_mode"}
+
+
+@pytest.fixture(scope="module")
+def maps(tmp_path_factory):
+    d = tmp_path_factory.mktemp("maps")
+    write_map(draw(ROOM), d / "truth.yaml")
+    write_map(draw(ROOM, pose=(0.05, -0.05, 0.03)), d / "est.yaml")
+    return d
+
+
+def run(capsys, argv):
+    code = main([str(a) for a in argv])
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def one_line_error(code, out, err):
+    assert code == 2
+    assert err.startswith("error: ") and err.count("\n") == 1, err
+    assert "Traceback" not in err
+
+
+def test_score_json_contract(maps, capsys, tmp_path):
+    pic = tmp_path / "o.png"
+    code, out, err = run(capsys, ["score", "--map", maps / "est.yaml", "--truth", maps / "truth.yaml",
+                                  "--json", "--picture", pic, "--tolerance", "1"])
+    assert code == 0, err
+    r = json.loads(out)
+    assert CONTRACT <= set(r) and set(r["align"]) == {"x", "y", "yaw"}
+    assert r["precision"] == 1.0 and r["sensitivity"] == 1.0 and r["tolerance"] == 1
+    assert r["align_mode"] == "icp"
+    assert abs(r["align"]["yaw"] - 0.03) < np.deg2rad(0.5)
+    assert pic.read_bytes()[:4] == b"\x89PNG"
+
+
+def test_score_identical_text_output_and_global(maps, capsys):
+    code, out, _ = run(capsys, ["score", "--map", maps / "truth.yaml", "--truth", maps / "truth.yaml",
+                                "--start", "none"])
+    assert code == 0
+    assert "precision" in out and "align_mode               global" in out
+
+
+def test_missing_pgm(maps, capsys, tmp_path):
+    write_map(draw(ROOM), tmp_path / "m.yaml")
+    (tmp_path / "m.pgm").unlink()
+    one_line_error(*run(capsys, ["score", "--map", tmp_path / "m.yaml", "--truth", maps / "truth.yaml"]))
+
+
+def test_pgm_size_disagrees(maps, capsys, tmp_path):
+    write_map(draw(ROOM), tmp_path / "m.yaml")
+    data = (tmp_path / "m.pgm").read_bytes()
+    (tmp_path / "m.pgm").write_bytes(data[: len(data) // 2])  # header promises more pixels
+    code, out, err = run(capsys, ["score", "--map", tmp_path / "m.yaml", "--truth", maps / "truth.yaml"])
+    one_line_error(code, out, err)
+    assert "truncated" in err
+
+
+@pytest.mark.parametrize("content", [b"\x89PNG\r\n\x1a\n\x00\x00binary", b"just: [a, mapping]\n",
+                                     b"- a list\n"])
+def test_non_map_files(maps, capsys, tmp_path, content):
+    f = tmp_path / "x.yaml"
+    f.write_bytes(content)
+    one_line_error(*run(capsys, ["score", "--map", f, "--truth", maps / "truth.yaml"]))
+
+
+def test_pgm_given_instead_of_yaml(maps, capsys):
+    one_line_error(*run(capsys, ["score", "--map", maps / "est.pgm", "--truth", maps / "truth.yaml"]))
+
+
+def test_empty_maps(maps, capsys, tmp_path):
+    write_map(Grid(np.zeros((20, 20))), tmp_path / "empty.yaml")
+    code, out, err = run(capsys, ["score", "--map", tmp_path / "empty.yaml", "--truth", maps / "truth.yaml"])
+    one_line_error(code, out, err)
+    assert "no occupied cell" in err
+    code, out, err = run(capsys, ["score", "--map", maps / "est.yaml", "--truth", tmp_path / "empty.yaml"])
+    one_line_error(code, out, err)
+    assert "no occupied cell" in err
+
+
+def test_bad_start_option(maps, capsys):
+    with pytest.raises(SystemExit) as e:
+        main(["score", "--map", str(maps / "est.yaml"), "--truth", str(maps / "truth.yaml"),
+              "--start", "1,2"])
+    assert e.value.code == 2
+
+
+def test_trajectory_command(capsys, tmp_path):
+    t = np.linspace(0, 20, 201)
+    gt = np.column_stack([0.1 * t, np.sin(0.2 * t), 0.1 * t])
+    write_tum(tmp_path / "gt.tum", t, gt)
+    write_tum(tmp_path / "est.tum", t, gt + [0.3, 0.4, 0.0])
+    code, out, err = run(capsys, ["trajectory", "--est", tmp_path / "est.tum", "--truth",
+                                  tmp_path / "gt.tum", "--json"])
+    assert code == 0, err
+    r = json.loads(out)
+    assert r["ate_start_m"] == pytest.approx(0.5, abs=1e-6)
+    assert r["ate_m"] == pytest.approx(0.0, abs=1e-6)
+    assert r["rpe_trans_m"] == pytest.approx(0.0, abs=1e-6)
+    (tmp_path / "bad.tum").write_text("0 1 2\n")
+    one_line_error(*run(capsys, ["trajectory", "--est", tmp_path / "bad.tum", "--truth",
+                                 tmp_path / "gt.tum"]))
+
+
+def test_relations_command_is_wired(capsys, tmp_path):
+    pytest.importorskip("metrics.relations")
+    t = np.arange(0.0, 10.0, 0.5)
+    poses = np.column_stack([t, 0 * t, 0 * t])
+    write_tum(tmp_path / "est.tum", t, poses)
+    (tmp_path / "rel.txt").write_text("1.0 2.0 1.0 0 0 0 0 0\n3.0 5.0 2.0 0 0 0 0 0\n")
+    code, out, err = run(capsys, ["relations", "--traj", tmp_path / "est.tum", "--relations",
+                                  tmp_path / "rel.txt", "--json"])
+    assert code == 0, err
+    r = json.loads(out)
+    assert r["n_used"] == 2 and r["abs_trans_mean"] == pytest.approx(0.0, abs=1e-9)
+    one_line_error(*run(capsys, ["relations", "--traj", tmp_path / "none.tum", "--relations",
+                                 tmp_path / "rel.txt"]))
