@@ -157,3 +157,41 @@ def test_overlay_masks_and_png(truth, tmp_path):
     out = tmp_path / "sub" / "overlay.png"
     save_overlay_png(est, truth, np.zeros(3), out, title="half the cells")
     assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and out.stat().st_size > 5000
+
+
+def shipped_worlds():
+    try:
+        from worlds import list_worlds
+        return list_worlds()
+    except ImportError:  # worlds package not built yet
+        return []
+
+
+@pytest.mark.parametrize("name", shipped_worlds())
+def test_global_on_shipped_world_truths(name):
+    """A random rigid transform of a shipped world's true map: `global` finds an alignment
+    under which it scores perfectly; for worlds without a symmetry, the transform itself."""
+    from worlds import load_world, rasterize
+
+    truth = rasterize(load_world(name))
+    rng = np.random.default_rng(sum(map(ord, name)))
+    move = np.array([*rng.uniform(-2.0, 2.0, 2), rng.uniform(-np.pi, np.pi)])
+    est = Grid(truth.prob, truth.resolution, compose(inverse(move), truth.origin))
+    r = score_map(est, truth, initial=None)
+    assert r["align_mode"] == "global"
+    assert (r["precision"], r["sensitivity"], r["fp"], r["fn"]) == (1.0, 1.0, 0, 0)
+    if name.startswith("swirl"):  # no rotational symmetry
+        a = np.array([r["align"]["x"], r["align"]["y"], r["align"]["yaw"]])
+        assert yaw_err_deg(a[2], move[2]) < 0.5
+        assert np.hypot(*(a[:2] - move[:2])) < 0.5 * truth.resolution
+
+
+def test_coarser_estimate_of_a_shipped_world():
+    from worlds import load_world, rasterize
+
+    if "swirl_m" not in shipped_worlds():
+        pytest.skip("swirl_m not shipped")
+    world = load_world("swirl_m")
+    truth = rasterize(world)
+    r = score_map(rasterize(world, resolution=0.1), truth, tolerance=1)
+    assert r["precision"] > 0.95 and r["sensitivity"] > 0.95
