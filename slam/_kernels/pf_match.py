@@ -14,8 +14,12 @@ params (float64 array, one small array instead of many arguments):
     [5] lstep  [6] astep   [7] iterations
     [8] llsamplerange  [9] llsamplestep  [10] lasamplerange  [11] lasamplestep
 
+The compiled kernels score against dense patches of each particle's map around its pose
+(extract_patches: the occupied flags and mean hit points, copied once per update), which
+makes the many evaluations of the hill climbing plain array reads.
+
 Kernels and references:
-  score_and_likelihood(one pose)      <-> score_and_likelihood_ref (dense counters)
+  extract_patches + score_and_likelihood(one pose) <-> score_and_likelihood_ref (dense counters)
   hill_climb (all particles)          <-> hill_climb_ref (plain loop over the reference score)
   proposal_moments (all particles)    <-> proposal_moments_ref
 """
@@ -26,7 +30,7 @@ import math
 import numpy as np
 from numba import njit
 
-__all__ = ["PARAMS", "make_params", "score_and_likelihood", "hill_climb", "proposal_moments",
+__all__ = ["PARAMS", "make_params", "extract_patches", "score_and_likelihood", "hill_climb", "proposal_moments",
            "score_and_likelihood_ref", "hill_climb_ref", "proposal_moments_ref"]
 
 PARAMS = ("sigma", "lsigma", "null_likelihood", "fullness", "kernel", "lstep", "astep",
@@ -39,34 +43,62 @@ def make_params(**kw) -> np.ndarray:
 
 
 @njit(cache=True)
-def _cell(table, pool, grid_meta, r, c):
-    """(hits, visits, mean x, mean y) of cell (r, c); visits 0 when unknown or outside."""
+def extract_patches(tables, pool, grid_meta, poses, half, fullness):
+    """Dense views of each particle's map around its pose, for fast repeated scoring.
+
+    A square of 2 * half cells centred on each pose: occ (N, S, S) int8 (1 where
+    n / visits > fullness), mean (N, S, S, 2) float32 world x, y of the mean hit point,
+    corner (N, 2) int64 grid row, col of the patch's first cell. Cells outside count as unknown.
+    """
+    ox, oy, res = grid_meta[0], grid_meta[1], grid_meta[2]
     rows, cols, tile = int(grid_meta[3]), int(grid_meta[4]), int(grid_meta[5])
-    if r < 0 or r >= rows or c < 0 or c >= cols:
-        return 0.0, 0.0, 0.0, 0.0
-    t = table[r // tile, c // tile]
-    if t < 0:
-        return 0.0, 0.0, 0.0, 0.0
-    lr = r % tile
-    lc = c % tile
-    n = pool[t, lr, lc, 0]
-    v = pool[t, lr, lc, 1]
-    if n <= 0:
-        return n, v, 0.0, 0.0
-    res = grid_meta[2]
-    return (n, v, grid_meta[0] + c * res + pool[t, lr, lc, 2] / n,
-            grid_meta[1] + r * res + pool[t, lr, lc, 3] / n)
+    n = poses.shape[0]
+    size = 2 * half
+    occ = np.zeros((n, size, size), dtype=np.int8)
+    mean = np.zeros((n, size, size, 2), dtype=np.float32)
+    corner = np.empty((n, 2), dtype=np.int64)
+    for p in range(n):
+        r0 = int(math.floor((poses[p, 1] - oy) / res)) - half
+        c0 = int(math.floor((poses[p, 0] - ox) / res)) - half
+        corner[p, 0] = r0
+        corner[p, 1] = c0
+        for i in range(size):
+            r = r0 + i
+            if r < 0 or r >= rows:
+                continue
+            tr = r // tile
+            lr = r - tr * tile
+            for j in range(size):
+                c = c0 + j
+                if c < 0 or c >= cols:
+                    continue
+                tc = c // tile
+                t = tables[p, tr, tc]
+                if t < 0:
+                    continue
+                lc = c - tc * tile
+                hits = pool[t, lr, lc, 0]
+                visits = pool[t, lr, lc, 1]
+                if visits > 0 and hits / visits > fullness:
+                    occ[p, i, j] = 1
+                    mean[p, i, j, 0] = ox + c * res + pool[t, lr, lc, 2] / hits
+                    mean[p, i, j, 1] = oy + r * res + pool[t, lr, lc, 3] / hits
+    return occ, mean, corner
 
 
 @njit(cache=True)
-def score_and_likelihood(table, pool, grid_meta, pose, hits, frees, params):
-    """(score, log likelihood) of one robot pose (3,) against one particle's map.
+def score_and_likelihood(occ, mean, corner, grid_meta, pose, hits, frees, params):
+    """(score, log likelihood) of one robot pose (3,) against one particle's map patch.
 
-    table: (TR, TC) int32; pool: (cap, T, T, 4) float32; hits, frees: (K, 2) robot frame, m.
+    occ: (S, S) int8; mean: (S, S, 2) float32; corner: (2,) row, col of the patch in the
+    grid (see extract_patches); hits, frees: (K, 2) robot frame, m.
     """
-    sigma, lsigma, null_l, fullness = params[0], params[1], params[2], params[3]
+    sigma, lsigma, null_l = params[0], params[1], params[2]
     kernel = int(params[4])
-    ox, oy, res = grid_meta[0], grid_meta[1], grid_meta[2]
+    res = grid_meta[2]
+    ox = grid_meta[0] + corner[1] * res
+    oy = grid_meta[1] + corner[0] * res
+    size_r, size_c = occ.shape
     c = math.cos(pose[2])
     s = math.sin(pose[2])
     score = 0.0
@@ -83,14 +115,18 @@ def score_and_likelihood(table, pool, grid_meta, pose, hits, frees, params):
         dr = int(math.floor((fy - oy) / res)) - hr
         best = np.inf
         for yy in range(-kernel, kernel + 1):
+            r = hr + yy
+            if r < 0 or r >= size_r:
+                continue
             for xx in range(-kernel, kernel + 1):
-                n, v, mx, my = _cell(table, pool, grid_meta, hr + yy, hc + xx)
-                if v <= 0 or n / v <= fullness:
+                cc = hc + xx
+                if cc < 0 or cc >= size_c or occ[r, cc] == 0:
                     continue
-                fn, fv, _, _ = _cell(table, pool, grid_meta, hr + yy + dr, hc + xx + dc)
-                if fv > 0 and fn / fv > fullness:
+                fr = r + dr
+                fc = cc + dc
+                if 0 <= fr < size_r and 0 <= fc < size_c and occ[fr, fc] != 0:
                     continue
-                d2 = (hx - mx) ** 2 + (hy - my) ** 2
+                d2 = (hx - mean[r, cc, 0]) ** 2 + (hy - mean[r, cc, 1]) ** 2
                 if d2 < best:
                     best = d2
         if best < np.inf:
@@ -102,11 +138,11 @@ def score_and_likelihood(table, pool, grid_meta, pose, hits, frees, params):
 
 
 @njit(cache=True)
-def _climb_one(table, pool, grid_meta, init, hits, frees, params):
+def _climb_one(occ, mean, corner, grid_meta, init, hits, frees, params):
     """Gmapping's optimize(): axis moves x, y, yaw; halve the steps when none improves."""
     ldelta, adelta, iterations = params[5], params[6], int(params[7])
     cur = init.copy()
-    cur_score, _ = score_and_likelihood(table, pool, grid_meta, cur, hits, frees, params)
+    cur_score, _ = score_and_likelihood(occ, mean, corner, grid_meta, cur, hits, frees, params)
     best_score = -1.0
     refinement = 0
     trial = np.empty(3)
@@ -131,7 +167,7 @@ def _climb_one(table, pool, grid_meta, init, hits, frees, params):
                 trial[2] += adelta
             else:
                 trial[2] -= adelta
-            sc, _ = score_and_likelihood(table, pool, grid_meta, trial, hits, frees, params)
+            sc, _ = score_and_likelihood(occ, mean, corner, grid_meta, trial, hits, frees, params)
             if sc > cur_score:
                 cur_score = sc
                 best_local[:] = trial
@@ -142,28 +178,32 @@ def _climb_one(table, pool, grid_meta, init, hits, frees, params):
 
 
 @njit(cache=True)
-def hill_climb(tables, pool, grid_meta, poses, hits, frees, params):
-    """Scan-match every particle against its own map from its pose.
+def hill_climb(occ, mean, corner, grid_meta, poses, hits, frees, params):
+    """Scan-match every particle against its own map patch from its pose.
 
-    tables: (N, TR, TC); poses: (N, 3). Returns matched poses (N, 3) and scores (N,).
+    occ, mean, corner: from extract_patches; poses: (N, 3). Returns matched poses (N, 3)
+    and scores (N,).
     """
     n = poses.shape[0]
     out = np.empty((n, 3))
     scores = np.empty(n)
     for p in range(n):
-        out[p], scores[p] = _climb_one(tables[p], pool, grid_meta, poses[p], hits, frees, params)
+        out[p], scores[p] = _climb_one(occ[p], mean[p], corner[p], grid_meta, poses[p], hits,
+                                       frees, params)
     return out, scores
 
 
 @njit(cache=True)
-def proposal_moments(tables, pool, grid_meta, poses, prior_mean, prior_std, hits, frees, params):
+def proposal_moments(occ, mean, corner, grid_meta, poses, prior_mean, prior_std, hits, frees,
+                     params):
     """Gaussian proposal around each matched pose from likelihood x motion prior.
 
     At the poses of the grid matched + (dx, dy, dyaw), dx, dy in -llsamplerange ..
     llsamplerange by llsamplestep, dyaw likewise with the angular values, the target is
-    exp(log likelihood + log N(pose; prior_mean, diag(prior_std^2))). Returns the weighted
-    mean (N, 3), covariance (N, 3, 3) and log eta (N,), eta = the sum of the target over
-    the grid (the normaliser the particle's weight is multiplied by).
+    exp(log likelihood + log N(pose; prior_mean, diag(prior_std^2))). poses, prior_mean,
+    prior_std: (N, 3). Returns the weighted mean (N, 3), covariance (N, 3, 3) and log eta
+    (N,), eta = the sum of the target over the grid (the normaliser the particle's weight
+    is multiplied by).
     """
     lr, ls, ar, ast = params[8], params[9], params[10], params[11]
     nl = int(round(lr / ls)) if ls > 0 else 0
@@ -183,8 +223,8 @@ def proposal_moments(tables, pool, grid_meta, poses, prior_mean, prior_std, hits
                     samples[j, 0] = poses[p, 0] + ix * ls
                     samples[j, 1] = poses[p, 1] + iy * ls
                     samples[j, 2] = poses[p, 2] + ia * ast
-                    _, lik = score_and_likelihood(tables[p], pool, grid_meta, samples[j], hits,
-                                                  frees, params)
+                    _, lik = score_and_likelihood(occ[p], mean[p], corner[p], grid_meta,
+                                                  samples[j], hits, frees, params)
                     lp = 0.0
                     for d in range(3):
                         e = samples[j, d] - prior_mean[p, d]

@@ -1,0 +1,364 @@
+"""`pf`: Rao-Blackwellized particle filter SLAM with scan-matched proposals (the Gmapping
+family: Grisetti, Stachniss, Burgard, "Improved Techniques for Grid Mapping with
+Rao-Blackwellized Particle Filters", IEEE T-RO 2007).
+
+Each particle holds a pose, a trajectory (a node in a tree shared by all particles) and
+its own count map (copy-on-write tiles, slam/pf_maps.py). Per scan every particle is moved
+by the odometry increment with Gmapping's noise (srr, srt, str, stt); once the robot has
+travelled linear_update metres or turned angular_update radians since the last update:
+  1. scan matching: each particle's pose is refined by hill climbing on its own map;
+  2. proposal: a Gaussian is fitted to likelihood x motion prior at poses around the
+     matched pose; the new pose is drawn from it and the weight multiplied by its
+     normaliser eta (the sum of that product);
+  3. selective resampling: when Neff < resample_threshold * N, low-variance resampling;
+  4. the scan is inserted into every particle's map.
+The output map and trajectory are those of the particle with the highest accumulated
+weight: its map is re-rendered from the update scans along its trajectory (as Gmapping's
+map update does) with occupancy n / visits > occ_thresh; scans between updates get its
+pose at the last update moved on by the odometry.
+Field comments name the Gmapping (ROS slam_gmapping) parameter each field is.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from worlds.grid import Grid
+from slam.base import ImuWindow, OdomDelta, Scan, register
+from slam.pose import compose, relative, wrap_angle
+from slam.preprocess import PreprocessConfig, preprocess, twist_from_poses
+from slam.pf_filter import (effective_sample_size, motion_std, normalized_weights,
+                            sample_motion, systematic_resample)
+from slam.pf_maps import TiledMaps
+from slam._kernels.pf_match import extract_patches, hill_climb, make_params, proposal_moments
+
+__all__ = ["MotionConfig", "MatcherConfig", "PfConfig", "ParticleFilterSlam"]
+
+
+@dataclass(frozen=True)
+class MotionConfig:
+    """Odometry noise, standard deviations proportional to the motion (Gmapping's model)."""
+
+    srr: float = 0.1   # srr: translation error (m) per metre translated
+    srt: float = 0.2   # srt: rotation error (rad) per metre translated
+    str: float = 0.1   # str: translation error (m) per radian rotated
+    stt: float = 0.2   # stt: rotation error (rad) per radian rotated
+    # floor of the motion prior's standard deviations (m, m, rad) in the proposal, so a
+    # particle that barely moved still has a proper prior density
+    prior_min_std: tuple[float, float, float] = (0.005, 0.005, 0.005)
+
+
+@dataclass(frozen=True)
+class MatcherConfig:
+    """Gmapping's scan matcher and likelihood."""
+
+    sigma: float = 0.05          # sigma: m^2, score of a beam = exp(-d^2 / sigma)
+    kernel_size: int = 1         # kernelSize: search window half-width (cells) around each end point
+    lstep: float = 0.05          # lstep: initial linear step of the hill climbing (m)
+    astep: float = 0.05          # astep: initial angular step (rad)
+    iterations: int = 5          # iterations: step halvings of the hill climbing
+    lsigma: float = 0.075        # lsigma: m^2, beam log-likelihood = -d^2 / lsigma
+    null_likelihood: float = -0.5  # Gmapping's nullLikelihood: unmatched beam = this / lsigma
+    fullness: float = 0.1        # Gmapping's fullnessThreshold: cell occupied for matching above this n/visits
+    ogain: float = 3.0           # ogain: weights smoothed as exp(log w / (ogain * particles))
+    lskip: int = 0               # lskip: use every (lskip+1)-th beam for matching
+    minimum_score: float = 50.0  # minimumScore (TurtleBot3 value): below it the match is ignored (odometry pose kept)
+    llsamplerange: float = 0.01  # llsamplerange: proposal grid half-width in x and y (m)
+    llsamplestep: float = 0.01   # llsamplestep: proposal grid step in x and y (m)
+    lasamplerange: float = 0.005  # lasamplerange: proposal grid half-width in yaw (rad)
+    lasamplestep: float = 0.005   # lasamplestep: proposal grid step in yaw (rad)
+
+    def params(self) -> np.ndarray:
+        """The kernels' params array (slam/_kernels/pf_match.py)."""
+        return make_params(sigma=self.sigma, lsigma=self.lsigma,
+                           null_likelihood=self.null_likelihood, fullness=self.fullness,
+                           kernel=self.kernel_size, lstep=self.lstep, astep=self.astep,
+                           iterations=self.iterations, llsamplerange=self.llsamplerange,
+                           llsamplestep=self.llsamplestep, lasamplerange=self.lasamplerange,
+                           lasamplestep=self.lasamplestep)
+
+
+@dataclass(frozen=True)
+class PfConfig:
+    """Particle-filter SLAM (Gmapping). Defaults: ROS gmapping, update thresholds and ranges
+    from the TurtleBot3 gmapping_params.yaml (a 3.5 m lidar in small worlds)."""
+
+    particles: int = 30               # particles
+    resample_threshold: float = 0.5   # resampleThreshold: resample when Neff < this * particles
+    linear_update: float = 0.2        # linearUpdate (m): filter update after this much travel
+    angular_update: float = 0.2       # angularUpdate (rad): ... or after this much rotation
+    temporal_update: float = -1.0     # temporalUpdate (s): ... or after this long (< 0: never)
+    max_urange: float = 3.0           # maxUrange (m): beams are cropped here (no hit beyond)
+    max_range: float = 0.0            # maxRange (m): readings at/after it are no return (0: sensor's)
+    delta: float = 0.05               # delta: map resolution (m)
+    occ_thresh: float = 0.25          # occ_thresh: output cell occupied when n / visits > this
+    map_extent: float = 50.0          # xmin/xmax/ymin/ymax: half side (m) of the square map around the start
+    tile: int = 16                    # cells per side of a copy-on-write map tile
+    deskew: bool = True               # undo the motion during a revolution (from odometry)
+    # output: keep only occupied cells next to seen free space (the wall faces the lidar saw);
+    # occupied cells behind them (range noise overshooting the wall) become unknown
+    surface_only: bool = True
+    surface_free_visits: int = 3      # a free neighbour must have been crossed this often
+    motion: MotionConfig = field(default_factory=MotionConfig)
+    matcher: MatcherConfig = field(default_factory=MatcherConfig)
+
+    def __post_init__(self):
+        if self.particles < 1:
+            raise ValueError(f"particles must be >= 1, got {self.particles}")
+        if not 0.0 <= self.resample_threshold <= 1.0:
+            raise ValueError(f"resample_threshold must lie in [0, 1], got {self.resample_threshold}")
+        for name in ("max_urange", "delta", "map_extent"):
+            if getattr(self, name) <= 0:
+                raise ValueError(f"{name} must be positive, got {getattr(self, name)}")
+        if self.tile < 1:
+            raise ValueError(f"tile must be >= 1, got {self.tile}")
+
+
+def surface_only(prob: np.ndarray, sure: np.ndarray) -> np.ndarray:
+    """(R, C) map with 1 occupied, 0 free, NaN unknown -> the same with occupied cells that
+    have no 4-neighbour which is free and `sure` ((R, C) bool) set to unknown."""
+    occ = prob == 1.0
+    free = (prob == 0.0) & sure
+    near = np.zeros_like(free)
+    near[1:, :] |= free[:-1, :]
+    near[:-1, :] |= free[1:, :]
+    near[:, 1:] |= free[:, :-1]
+    near[:, :-1] |= free[:, 1:]
+    out = prob.copy()
+    out[occ & ~near] = np.nan
+    return out
+
+
+class _Tree:
+    """Trajectory tree shared by all particles: node i has a pose and a parent (-1: root).
+    Each filter update adds one node per particle; resampling just copies node ids."""
+
+    def __init__(self):
+        self.poses: list[np.ndarray] = []
+        self.parents: list[np.ndarray] = []
+        self.n = 0
+
+    def add(self, poses: np.ndarray, parents: np.ndarray) -> np.ndarray:
+        ids = self.n + np.arange(len(poses))
+        self.poses.append(np.array(poses, dtype=np.float64))
+        self.parents.append(np.array(parents, dtype=np.int64))
+        self.n += len(poses)
+        return ids
+
+    def chain(self, node: int) -> np.ndarray:
+        """(U, 3) poses from the root to `node`."""
+        poses = np.concatenate(self.poses)
+        parents = np.concatenate(self.parents)
+        out = []
+        while node >= 0:
+            out.append(poses[node])
+            node = parents[node]
+        return np.array(out[::-1]).reshape(-1, 3)
+
+
+@register("pf")
+class ParticleFilterSlam:
+    """Gmapping-style RBPF; built as ParticleFilterSlam(cfg, start (3,), rng)."""
+
+    config_class = PfConfig
+    needs_odometry = True
+
+    def __init__(self, cfg: PfConfig, start: np.ndarray, rng: np.random.Generator):
+        self.cfg = cfg
+        self.rng = rng
+        n = cfg.particles
+        self.poses = np.tile(np.asarray(start, dtype=np.float64), (n, 1))
+        self.log_w = np.zeros(n)          # weights since the last resampling
+        self.weight_sum = np.zeros(n)     # accumulated over the whole run (picks the output)
+        self.maps = TiledMaps(n, start[:2], cfg.map_extent, cfg.delta, cfg.tile)
+        self.tree = _Tree()
+        self.nodes = np.full(n, -1, dtype=np.int64)
+        self.params = cfg.matcher.params()
+        # no-return beams (inf) are dropped, as Gmapping skips readings beyond maxRange: a
+        # dropped reading says nothing about the space along the beam
+        self.pre = PreprocessConfig(range_max=cfg.max_range, free_range=0.0, deskew=cfg.deskew)
+        # per scan: time, odometry pose, index of the filter update it follows
+        self._scan_t: list[float] = []
+        self._scan_odom: list[np.ndarray] = []
+        self._scan_update: list[int] = []
+        # per update: odometry pose and the scan (robot frame) inserted
+        self._upd_odom: list[np.ndarray] = []
+        self._upd_scans: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
+        self._last_update_poses = self.poses.copy()
+        self._prior_var = np.zeros(3)
+        self._linear = self._angular = 0.0
+        self._last_update_t = -np.inf
+        self.n_resamples = 0
+        self.neff_history: list[float] = []
+
+    # --- the filter ---------------------------------------------------------------------
+    def update(self, scan: Scan, odom: OdomDelta | None, imu: ImuWindow | None) -> np.ndarray:
+        if odom is None:
+            raise ValueError("pf needs odometry (run_algorithm checks the log first)")
+        first = not self._upd_odom
+        if not first:
+            delta = odom.delta
+            self.poses = self.move(delta)
+            self._linear += float(np.hypot(delta[0], delta[1]))
+            self._angular += abs(float(delta[2]))
+        if first or self.due(scan.t):
+            hits, frees, origin, ends, hit = self.beams(scan, odom)
+            if not first:
+                self.refine_by_proposal(hits, frees, odom.pose)
+                self.resample_if_needed()
+            self.insert(origin, ends, hit, odom.pose, scan.t)
+        self._scan_t.append(scan.t)
+        self._scan_odom.append(np.asarray(odom.pose, dtype=np.float64).copy())
+        self._scan_update.append(len(self._upd_odom) - 1)
+        return self.poses[self.best()].copy()
+
+    def move(self, delta: np.ndarray) -> np.ndarray:
+        """Sample every particle's motion; accumulate the motion prior's variance."""
+        m = self.cfg.motion
+        self._prior_var += motion_std(delta, m.srr, m.srt, m.str, m.stt) ** 2
+        return sample_motion(self.poses, delta, m.srr, m.srt, m.str, m.stt, self.rng)
+
+    def due(self, t: float) -> bool:
+        """Gmapping's update rule: enough travel, rotation or (if enabled) time."""
+        c = self.cfg
+        return (self._linear >= c.linear_update or self._angular >= c.angular_update
+                or (c.temporal_update >= 0 and t - self._last_update_t >= c.temporal_update))
+
+    def beams(self, scan: Scan, odom: OdomDelta):
+        """Robot-frame beams: matched hit points (K, 2) and their free points one cell closer
+        to the lidar, the lidar origin (2,), and all beam ends (M, 2) with hit flags (M,)."""
+        dt = scan.t - self._scan_t[-1] if self._scan_t else 0.0
+        twist = twist_from_poses(odom.prev_pose, odom.pose, dt) if dt > 0 else None
+        pts = preprocess(scan, self.pre, twist)
+        o = pts.origin
+        d = pts.points - o
+        r = np.linalg.norm(d, axis=1)
+        keep = r < self.cfg.max_urange
+        # hits beyond maxUrange only clear space up to maxUrange (Gmapping's usableRange)
+        far = pts.points[~keep]
+        far = o + (far - o) * (self.cfg.max_urange / r[~keep])[:, None]
+        hits = pts.points[keep]
+        ends = np.vstack([hits, far, pts.misses])
+        hit = np.r_[np.ones(len(hits), bool), np.zeros(len(far) + len(pts.misses), bool)]
+        step = self.cfg.matcher.lskip + 1
+        mh = hits[::step]
+        dh = mh - o
+        frees = mh - self.cfg.delta * dh / np.maximum(np.linalg.norm(dh, axis=1), 1e-9)[:, None]
+        return (np.ascontiguousarray(mh), np.ascontiguousarray(frees),
+                np.ascontiguousarray(o, dtype=np.float64), np.ascontiguousarray(ends), hit)
+
+    def refine_by_proposal(self, hits: np.ndarray, frees: np.ndarray, odom_pose: np.ndarray):
+        """Scan matching, then the Gaussian proposal around the matched pose; weights *= eta."""
+        m, c = self.maps, self.cfg
+        # patches reach the farthest beam end plus room for the matcher's moves
+        reach = float(np.max(np.linalg.norm(hits, axis=1))) if len(hits) else 0.0
+        half = int(np.ceil((reach + 0.5) / c.delta))
+        occ, mean_xy, corner = extract_patches(m.tables, m.pool, m.grid_meta, self.poses, half,
+                                               c.matcher.fullness)
+        patches = (occ, mean_xy, corner, m.grid_meta)
+        matched, score = hill_climb(*patches, self.poses, hits, frees, self.params)
+        start = np.where((score > c.matcher.minimum_score)[:, None], matched, self.poses)
+        start[:, 2] = wrap_angle(start[:, 2])
+        moved = relative(self._upd_odom[-1], odom_pose)
+        prior_mean = compose(self._last_update_poses, moved)
+        prior_std = np.maximum(np.sqrt(self._prior_var), np.asarray(c.motion.prior_min_std))
+        prior_std = np.tile(prior_std, (len(start), 1))
+        mean, cov, log_eta = proposal_moments(*patches, start, prior_mean, prior_std, hits, frees,
+                                              self.params)
+        # a tiny jitter keeps the Cholesky factor defined when the grid likelihood is one-peaked
+        chol = np.linalg.cholesky(cov + np.diag([1e-8, 1e-8, 1e-8]))
+        z = self.rng.standard_normal((len(start), 3))
+        self.poses = mean + np.einsum("nij,nj->ni", chol, z)
+        self.poses[:, 2] = wrap_angle(self.poses[:, 2])
+        self.log_w += log_eta
+        self.weight_sum += log_eta
+
+    def resample_if_needed(self) -> None:
+        """Low-variance resampling when the effective sample size is below the threshold."""
+        w = normalized_weights(self.log_w, self.cfg.matcher.ogain)
+        neff = effective_sample_size(w)
+        self.neff_history.append(neff)
+        if neff < self.cfg.resample_threshold * len(w):
+            idx = systematic_resample(w, self.rng)
+            self.poses = self.poses[idx]
+            self.maps.resample(idx)
+            self.nodes = self.nodes[idx]
+            self.weight_sum = self.weight_sum[idx]
+            self.log_w = np.zeros(len(idx))
+            self.n_resamples += 1
+
+    def insert(self, origin: np.ndarray, ends: np.ndarray, hit: np.ndarray, odom_pose: np.ndarray,
+               t: float) -> None:
+        """Register the scan in every particle's map; extend the trajectories."""
+        if not self._upd_odom:
+            # all particles start identical: insert once and share the tiles
+            self.maps.resample(np.zeros(1, dtype=np.int64))
+            self.maps.insert(self.poses[:1], origin, ends, hit)
+            self.maps.resample(np.zeros(len(self.poses), dtype=np.int64))
+        else:
+            self.maps.insert(self.poses, origin, ends, hit)
+        self.nodes = self.tree.add(self.poses, self.nodes)
+        self._upd_odom.append(np.asarray(odom_pose, dtype=np.float64).copy())
+        self._upd_scans.append((origin, ends, hit))
+        self._last_update_poses = self.poses.copy()
+        self._prior_var = np.zeros(3)
+        self._linear = self._angular = 0.0
+        self._last_update_t = t
+
+    def best(self) -> int:
+        """Index of the particle with the highest accumulated weight."""
+        return int(np.argmax(self.weight_sum))
+
+    # --- outputs ------------------------------------------------------------------------
+    def best_updates(self) -> np.ndarray:
+        """(U, 3) the best particle's poses at every filter update."""
+        return self.tree.chain(int(self.nodes[self.best()]))
+
+    def trajectory(self) -> tuple[np.ndarray, np.ndarray]:
+        """Times (N,) and poses (N, 3) at every scan: the best particle's update poses moved on
+        by the odometry to the scans in between."""
+        upd = self.best_updates()
+        if not self._scan_t:
+            return np.zeros(0), np.zeros((0, 3))
+        u = np.asarray(self._scan_update)
+        odom = np.asarray(self._scan_odom)
+        upd_odom = np.asarray(self._upd_odom)
+        poses = compose(upd[u], relative(upd_odom[u], odom))
+        return np.asarray(self._scan_t), poses.reshape(-1, 3)
+
+    def map(self) -> Grid:
+        """The best particle's map, re-rendered from the update scans along its trajectory:
+        1.0 where n / visits > occ_thresh, 0.0 elsewhere seen, NaN unknown; cropped."""
+        upd = self.best_updates()
+        one = TiledMaps(1, self.maps.grid_meta[:2] + self.maps.grid_meta[3] * self.cfg.delta / 2,
+                        self.cfg.map_extent, self.cfg.delta, self.cfg.tile)
+        for pose, (origin, ends, hit) in zip(upd, self._upd_scans):
+            one.insert(pose[None, :], origin, ends, hit)
+        counts, r_off, c_off = one.dense_bbox(0)
+        visits = counts[..., 1]
+        prob = np.full(visits.shape, np.nan)
+        seen = visits > 0
+        prob[seen] = (counts[..., 0][seen] / visits[seen] > self.cfg.occ_thresh).astype(np.float64)
+        if self.cfg.surface_only:
+            prob = surface_only(prob, visits >= self.cfg.surface_free_visits)
+        origin = one.grid_meta[:2] + np.array([c_off, r_off]) * self.cfg.delta
+        if seen.any():
+            r = np.nonzero(seen.any(axis=1))[0]
+            c = np.nonzero(seen.any(axis=0))[0]
+            r0, r1 = max(r[0] - 1, 0), min(r[-1] + 2, prob.shape[0])
+            c0, c1 = max(c[0] - 1, 0), min(c[-1] + 2, prob.shape[1])
+            prob = prob[r0:r1, c0:c1]
+            origin = origin + np.array([c0, r0]) * self.cfg.delta
+        return Grid(prob, self.cfg.delta, np.array([origin[0], origin[1], 0.0]))
+
+    def finish(self) -> None:
+        pass
+
+    def extra_stats(self) -> dict:
+        w = normalized_weights(self.log_w, self.cfg.matcher.ogain)
+        return {"filter_updates": len(self._upd_odom), "resamplings": self.n_resamples,
+                "best_particle": self.best(), "neff_final": effective_sample_size(w),
+                "neff_min": float(min(self.neff_history)) if self.neff_history else float(len(w)),
+                "map_tiles_in_use": self.maps.tiles_in_use(),
+                "map_memory_mb": self.maps.memory_bytes() / 1e6}
