@@ -312,6 +312,15 @@ def add_relations_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--json", action="store_true", help="print one JSON object")
 
 
+def _nan_to_none(v):
+    """Strict JSON: NaN statistics (fewer than two relations) become null."""
+    if isinstance(v, dict):
+        return {k: _nan_to_none(x) for k, x in v.items()}
+    if isinstance(v, float) and not np.isfinite(v):
+        return None
+    return v
+
+
 def relations_main(args: argparse.Namespace) -> int:
     """Run `metrics relations` for parsed args; InputError propagates to the CLI's handler."""
     res = relations_from_files(args.traj, args.relations, getattr(args, "odom", None),
@@ -319,7 +328,7 @@ def relations_main(args: argparse.Namespace) -> int:
                                tolerance=getattr(args, "tolerance", 1e-5),
                                long_s=getattr(args, "long_s", 5.0))
     if getattr(args, "json", False):
-        print(json.dumps(res, sort_keys=True, allow_nan=True))
+        print(json.dumps(_nan_to_none(res), sort_keys=True))
     else:
         print(format_relations(res))
     return 0

@@ -153,6 +153,7 @@ def test_gfs_excerpt_odometry_against_relation_excerpt(tmp_path, capsys):
     assert relations_main(args) == 0
     out = json.loads(capsys.readouterr().out)
     assert out["n_used"] == 8 and out["abs_trans_mean"] == pytest.approx(res["abs_trans_mean"])
+    assert out["long"]["abs_trans_std"] is None  # no long relation here: null, not NaN
     args = parser.parse_args(["--traj", str(traj), "--relations",
                               str(DATA / "mit-csail_excerpt.relations"), "--odom",
                               str(DATA / "csail_excerpt.gfs")])
