@@ -148,8 +148,8 @@ def load_plugins() -> list[str]:
         except Exception as err:
             raise InputError(f"algorithm plugin '{ep.name}' ({ep.value}) failed to load: {err}") from None
         # an entry point may name a module (registers on import) or a class to register
-        if isinstance(obj, type) and not getattr(obj, "algo_name", None):
-            from slam.base import register
+        from slam.base import ALGORITHMS, register
+        if isinstance(obj, type) and ep.name not in ALGORITHMS:
             register(ep.name)(obj)
         loaded.append(ep.name)
     return loaded

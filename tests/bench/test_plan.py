@@ -63,3 +63,21 @@ def test_config_files_checked(tmp_path):
         parse_configs([f"fake_raise={good}"], ["fake_map"])
     with pytest.raises(InputError, match="ALGO=YAML"):
         parse_configs([str(good)], ["fake_map"])
+
+
+def test_entry_point_plugins(monkeypatch):
+    import importlib.metadata as md
+    from slam.base import ALGORITHMS
+    from bench.plan import load_plugins
+    good = md.EntryPoint("plugin_algo", "tests.bench.plugin_algo:PluginAlgo", "slam_bench.algorithms")
+    monkeypatch.setattr(md, "entry_points", lambda group=None: [good])
+    monkeypatch.delitem(ALGORITHMS, "plugin_algo", raising=False)
+    try:
+        assert load_plugins() == ["plugin_algo"]
+        assert "plugin_algo" in resolve_algos("plugin_algo,fake_map")
+    finally:
+        ALGORITHMS.pop("plugin_algo", None)
+    bad = md.EntryPoint("broken", "tests.bench.no_such_module", "slam_bench.algorithms")
+    monkeypatch.setattr(md, "entry_points", lambda group=None: [bad])
+    with pytest.raises(InputError, match="plugin 'broken'.*failed to load"):
+        load_plugins()
