@@ -10,8 +10,8 @@ Method (an art-gallery style viewpoint plan, then a travelling-salesman order):
  3. greedy set cover: repeatedly take the candidate that sees the most wall cells not yet
     seen (within `max_range`, by exact ray casting as in worlds.coverage) until every wall
     cell seen by any candidate is covered;
- 4. order: nearest neighbour from the start, improved by 2-opt on the shortest-path
-    distances (an open path, the start fixed);
+ 4. order: nearest neighbour from the start, improved by 2-opt and or-opt moves on the
+    shortest-path distances (an open path, the start fixed);
  5. join consecutive viewpoints by shortest paths on the grid graph (Dijkstra,
     scipy.sparse.csgraph) and smooth by line-of-sight shortcuts that keep the clearance.
 """
@@ -113,30 +113,45 @@ def _greedy_cover(sets: list[np.ndarray], universe: np.ndarray) -> list[int]:
     return chosen
 
 
+def _tour_cost(dist: np.ndarray, tour: list[int]) -> float:
+    return float(sum(dist[a, b] for a, b in zip(tour[:-1], tour[1:])))
+
+
 def _order(dist: np.ndarray) -> list[int]:
     """Open tour over the nodes of a (K+1, K+1) distance matrix starting at node 0:
-    nearest neighbour, then 2-opt until no reversal shortens it."""
+    nearest neighbour, then 2-opt reversals and or-opt moves (a run of 1-3 nodes moved
+    elsewhere, either way round) until neither shortens it."""
     k = len(dist)
     tour = [0]
     todo = set(range(1, k))
     while todo:
         last = tour[-1]
-        nxt = min(todo, key=lambda j: dist[last, j])
+        nxt = min(todo, key=lambda j: (dist[last, j], j))
         tour.append(nxt)
         todo.remove(nxt)
+    cost = _tour_cost(dist, tour)
     improved = True
     while improved:
         improved = False
-        for i in range(1, k - 1):
+        for i in range(1, k - 1):                      # 2-opt: reverse tour[i..j]
             for j in range(i + 1, k):
-                a, b = tour[i - 1], tour[i]
-                c = tour[j]
-                d = tour[j + 1] if j + 1 < k else None
-                old = dist[a, b] + (dist[c, d] if d is not None else 0.0)
-                new = dist[a, c] + (dist[b, d] if d is not None else 0.0)
-                if new < old - 1e-9:
-                    tour[i:j + 1] = tour[i:j + 1][::-1]
-                    improved = True
+                cand = tour[:i] + tour[i:j + 1][::-1] + tour[j + 1:]
+                c = _tour_cost(dist, cand)
+                if c < cost - 1e-9:
+                    tour, cost, improved = cand, c, True
+        for n in (1, 2, 3):                            # or-opt: move tour[i:i+n]
+            for i in range(1, k - n + 1):
+                run, rest = tour[i:i + n], tour[:i] + tour[i + n:]
+                for j in range(1, len(rest) + 1):
+                    for piece in (run, run[::-1]):
+                        cand = rest[:j] + piece + rest[j:]
+                        c = _tour_cost(dist, cand)
+                        if c < cost - 1e-9:
+                            tour, cost, improved = cand, c, True
+                            break
+                    else:
+                        continue
+                    break
     return tour
 
 
