@@ -10,6 +10,7 @@ passes near itself (a spiral) is followed in order.
 """
 from __future__ import annotations
 
+import bisect
 import math
 from dataclasses import dataclass
 
@@ -55,6 +56,9 @@ class PurePursuit:
         self.seg_len = np.linalg.norm(seg, axis=1)
         self.cum = np.concatenate([[0.0], np.cumsum(self.seg_len)])
         self.length = float(self.cum[-1])
+        self._cum = self.cum.tolist()
+        self._seg = [(float(p[0]), float(p[1]), float(d[0]), float(d[1]), float(n))
+                     for p, d, n in zip(path[:-1], seg, self.seg_len)]
         self.s = 0.0            # progress (arc length of the closest point)
         self.v = 0.0
         self.done = False
@@ -62,31 +66,37 @@ class PurePursuit:
         self._best_s = 0.0
         self._best_t = 0.0
 
+    def _segment_at(self, s: float) -> int:
+        return min(max(bisect.bisect_right(self._cum, s) - 1, 0), len(self._seg) - 1)
+
     def _point_at(self, s: float) -> tuple[float, float]:
         s = min(max(s, 0.0), self.length)
-        i = min(int(np.searchsorted(self.cum, s, side="right")) - 1, len(self.seg_len) - 1)
-        f = (s - self.cum[i]) / self.seg_len[i]
-        p0, p1 = self.path[i], self.path[i + 1]
-        return p0[0] + f * (p1[0] - p0[0]), p0[1] + f * (p1[1] - p0[1])
+        i = self._segment_at(s)
+        x0, y0, dx, dy, length = self._seg[i]
+        f = (s - self._cum[i]) / length
+        return x0 + f * dx, y0 + f * dy
 
     def _progress(self, x: float, y: float) -> float:
         """Arc length of the closest path point within [s, s + search_window]."""
-        lo = max(int(np.searchsorted(self.cum, self.s, side="right")) - 1, 0)
-        lo = min(lo, len(self.seg_len) - 1)
-        hi = int(np.searchsorted(self.cum, self.s + self.cfg.search_window, side="right"))
-        hi = min(max(hi, lo + 1), len(self.seg_len))     # segments lo .. hi-1
-        p0 = self.path[lo:hi]
-        seg = self.path[lo + 1:hi + 1] - p0
-        seg_len = self.seg_len[lo:hi]
-        f = np.clip(((x - p0[:, 0]) * seg[:, 0] + (y - p0[:, 1]) * seg[:, 1]) / seg_len ** 2, 0, 1)
-        d2 = (p0[:, 0] + f * seg[:, 0] - x) ** 2 + (p0[:, 1] + f * seg[:, 1] - y) ** 2
-        s_cand = self.cum[lo:hi] + f * seg_len
-        s_cand = np.minimum(s_cand, self.s + self.cfg.search_window)
-        ok = s_cand >= self.s
-        if not ok.any():
-            return self.s
-        k = int(np.argmin(np.where(ok, d2, np.inf)))
-        return float(s_cand[k])
+        s_lo = self.s
+        s_hi = self.s + self.cfg.search_window
+        best_d2, best_s = math.inf, s_lo
+        # plain Python: the window holds a few segments, numpy's call overhead would dominate
+        for i in range(self._segment_at(s_lo), self._segment_at(s_hi) + 1):
+            x0, y0, dx, dy, length = self._seg[i]
+            f = ((x - x0) * dx + (y - y0) * dy) / (length * length)
+            f = 0.0 if f < 0.0 else (1.0 if f > 1.0 else f)
+            s_c = self._cum[i] + f * length
+            if s_c < s_lo:       # the closest point lies behind the progress: clamp to it
+                s_c = s_lo
+                f = (s_c - self._cum[i]) / length
+            elif s_c > s_hi:
+                s_c = s_hi
+                f = (s_c - self._cum[i]) / length
+            d2 = (x0 + f * dx - x) ** 2 + (y0 + f * dy - y) ** 2
+            if d2 < best_d2:
+                best_d2, best_s = d2, s_c
+        return best_s
 
     def command(self, x: float, y: float, yaw: float, t: float, dt: float) -> tuple[float, float]:
         """Twist (v m/s, w rad/s) for the robot at (x, y, yaw) at time t; dt: control period."""

@@ -31,7 +31,7 @@ from worlds.yamlio import InputError, from_dict, load_yaml, to_dict
 __all__ = ["RecordConfig", "load_record_config", "record", "SIM_VERSION"]
 
 # bump when the recorded data for the same world, seed and profile changes
-SIM_VERSION = "1"
+SIM_VERSION = "2"
 
 
 @dataclass(frozen=True)
@@ -110,9 +110,7 @@ def _drive(world: World, route: np.ndarray, cfg: RecordConfig, noise: NoiseProfi
     gt = [robot.pose]
     wheel = []
     ending = "timeout"
-    step = robot.step
-    set_twist = robot.set_twist
-    body = robot.body
+    drive = robot.drive
     for k in range(n_ctrl_max):
         x, y, a = gt[-1]
         v, w = ctrl.command(x, y, a, k * dt_c, dt_c)
@@ -131,11 +129,7 @@ def _drive(world: World, route: np.ndarray, cfg: RecordConfig, noise: NoiseProfi
         gl = wl * dt_c * r_left + wn.slip_density * math.sqrt(abs(dl)) * e[0]
         gr = wr * dt_c * r_right + wn.slip_density * math.sqrt(abs(dr)) * e[1]
         vt, wt = twist_from_wheels(gl / dt_c, gr / dt_c, 1.0, 1.0, sep)
-        for _ in range(every):
-            set_twist(vt, wt, dt)
-            step(dt)
-            p = body.position
-            gt.append((p.x, p.y, body.angle))
+        drive(vt, wt, dt, every, gt)
     gt = np.asarray(gt, dtype=np.float64)
     wheel = np.asarray(wheel, dtype=np.float64).reshape(-1, 2)
     # Chipmunk integrates positions before it solves the joints, so the body answers a

@@ -76,8 +76,8 @@ def twist_from_wheels(left, right, radius_left, radius_right, separation):
 class DiffDriveRobot:
     """The pymunk space with the static world and the robot.
 
-    set_twist(v, w): command the body-frame twist for the following steps;
-    step(dt): advance physics; pose: (x, y, yaw) of the robot (wheel axle centre).
+    drive(v, w, dt, steps, out): physics steps at a commanded body-frame twist;
+    pose: (x, y, yaw) of the robot (wheel axle centre).
     """
 
     def __init__(self, world: World, start: np.ndarray, cfg: RobotConfig):
@@ -107,24 +107,67 @@ class DiffDriveRobot:
         gear.max_bias = 0.0
         gear.max_force = cfg.gear_max_force
         space.add(body, disc, control, pivot, gear)
+        space.step(0.0)  # lets pymunk run its checks of the new bodies once
         self.space, self.body, self.control = space, body, control
+        # Chipmunk's C functions, called directly in drive(): the Python wrappers
+        # (Space.step's bookkeeping for callbacks and deferred removals, none used here,
+        # and the attribute setters) cost ~4x the physics itself. Public API as fallback.
+        try:
+            from pymunk._chipmunk import lib
+            self._lib = lib
+            self._space_ptr, self._body_ptr, self._control_ptr = space._space, body._body, control._body
+        except (ImportError, AttributeError):
+            self._lib = _PublicApi(space, body, control)
+            self._space_ptr = self._body_ptr = self._control_ptr = None
 
-    def set_twist(self, v: float, w: float, dt: float) -> None:
-        """Command forward speed v (m/s) and turn rate w (rad/s) in the robot frame for the
-        next step of dt s."""
-        body, control = self.body, self.control
-        # re-anchor the control body on the robot so a blocked robot does not "catch up"
-        control.position = body.position
-        control.angle = body.angle
-        # move along the heading at the middle of the step: an arc, not its tangent
-        a = body.angle + 0.5 * w * dt
-        control.velocity = (v * math.cos(a), v * math.sin(a))
-        control.angular_velocity = w
+    def drive(self, v: float, w: float, dt: float, steps: int, out: list) -> None:
+        """Drive at forward speed v (m/s) and turn rate w (rad/s), robot frame, for `steps`
+        physics steps of dt s, appending the pose (x, y, yaw unwrapped) after each to `out`.
 
-    def step(self, dt: float) -> None:
-        self.space.step(dt)
+        The joints have max_bias = 0, so only velocities are driven and the control
+        body's position never matters: it is not re-anchored. The control velocity points
+        along the heading at the middle of each step, so the body follows an arc.
+        """
+        lib, sp, b, k = self._lib, self._space_ptr, self._body_ptr, self._control_ptr
+        get_angle, get_pos = lib.cpBodyGetAngle, lib.cpBodyGetPosition
+        set_vel, set_w, space_step = lib.cpBodySetVelocity, lib.cpBodySetAngularVelocity, lib.cpSpaceStep
+        # The velocity solved in this step moves the body in the next one (Chipmunk
+        # integrates positions before it solves the joints), while the body turns from
+        # angle + w dt to angle + 2 w dt: point it along the middle of that turn.
+        ahead = 1.5 * w * dt
+        cos, sin = math.cos, math.sin
+        set_w(k, w)
+        for _ in range(steps):
+            a = get_angle(b) + ahead
+            set_vel(k, (v * cos(a), v * sin(a)))
+            space_step(sp, dt)
+            p = get_pos(b)
+            out.append((p.x, p.y, get_angle(b)))
 
     @property
     def pose(self) -> tuple[float, float, float]:
+        """(x, y, yaw) now, yaw unwrapped (continuous)."""
         p = self.body.position
         return p.x, p.y, self.body.angle
+
+
+class _PublicApi:
+    """The four Chipmunk calls drive() makes, through pymunk's public API."""
+
+    def __init__(self, space, body, control):
+        self.space, self.body, self.control = space, body, control
+
+    def cpBodyGetAngle(self, _):
+        return self.body.angle
+
+    def cpBodyGetPosition(self, _):
+        return self.body.position
+
+    def cpBodySetVelocity(self, _, vel):
+        self.control.velocity = vel
+
+    def cpBodySetAngularVelocity(self, _, w):
+        self.control.angular_velocity = w
+
+    def cpSpaceStep(self, _, dt):
+        self.space.step(dt)
