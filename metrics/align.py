@@ -39,6 +39,7 @@ class AlignConfig:
     rot_step_deg: float = 2.0         # rotation grid of the global search (ICP fixes +-1 deg)
     coarse_cells: float = 3.0         # global search translation cell, in true cells
     candidates: int = 4               # rotations refined by ICP in the global search
+    max_coarse: int = 200             # at most this many search bins across the true map
     icp_max_iter: int = 80
     icp_start_cells: float = 12.0     # correspondence cut-off at the first iteration
     icp_final_cells: float = 3.0      # ... shrinking to this
@@ -163,7 +164,9 @@ def global_candidates(pts: np.ndarray, truth: PreparedTruth,
     pts: (N, 2) estimate occupied-cell centres (m). Rotations are local maxima of the
     correlation score over the rotation grid, best first.
     """
-    h = cfg.coarse_cells * truth.resolution
+    span = float(np.max(truth.points.max(0) - truth.points.min(0)))
+    # large maps (real buildings): at most ~cfg.max_coarse bins across, to bound FFT cost
+    h = max(cfg.coarse_cells * truth.resolution, span / cfg.max_coarse)
     score_img, lo = truth.coarse_score(h)
     ht, wt = score_img.shape
     centre = pts.mean(0)
