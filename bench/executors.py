@@ -10,10 +10,15 @@ from __future__ import annotations
 
 import concurrent.futures as cf
 import os
+import signal
 
 from worlds.yamlio import InputError
 
 __all__ = ["make_executor", "InlineExecutor", "PoolExecutor", "DaskExecutor"]
+
+
+def _ignore_sigint() -> None:
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
 class InlineExecutor:
@@ -61,7 +66,8 @@ class PoolExecutor:
 
     def __init__(self, jobs: int):
         self.workers = jobs
-        self.pool = cf.ProcessPoolExecutor(max_workers=jobs)
+        # workers ignore Ctrl-C: the runner handles it once and stops them itself
+        self.pool = cf.ProcessPoolExecutor(max_workers=jobs, initializer=_ignore_sigint)
 
     def submit(self, fn, *args):
         return self.pool.submit(fn, *args)
@@ -77,7 +83,17 @@ class PoolExecutor:
         return fut.result()
 
     def shutdown(self, cancel: bool = True):
-        self.pool.shutdown(wait=not cancel, cancel_futures=cancel)
+        if cancel:
+            # a running SLAM may take minutes: stop the workers instead of waiting for them
+            procs = list(getattr(self.pool, "_processes", {}).values())
+            self.pool.shutdown(wait=False, cancel_futures=True)
+            for proc in procs:
+                if proc.is_alive():
+                    proc.terminate()
+            for proc in procs:
+                proc.join(timeout=5)
+        else:
+            self.pool.shutdown(wait=True)
 
 
 class DaskExecutor:

@@ -111,7 +111,7 @@ def make_tasks(spec: RunSpec, world_keys: list[str] | None = None) -> list[Task]
 
 
 def parse_worlds(text: str) -> list[str]:
-    """'all' | 'NAME|FILE[,NAME|FILE...]' -> list of world names / paths (not loaded yet)."""
+    """'all' | 'NAME|FILE[,NAME|FILE...]' -> world names and absolute YAML paths (not loaded)."""
     if text is None or not str(text).strip():
         raise InputError("--world is empty")
     items = [t.strip() for t in str(text).split(",") if t.strip()]
@@ -123,6 +123,9 @@ def parse_worlds(text: str) -> list[str]:
         return names
     seen = []
     for it in items:
+        p = Path(it).expanduser()
+        if p.suffix.lower() in (".yaml", ".yml") or "/" in it:
+            it = str(p.resolve())  # absolute, so --resume works from any folder
         if it not in seen:
             seen.append(it)
     return seen

@@ -166,9 +166,8 @@ def run_benchmark(spec: RunSpec, out_dir: str | Path, jobs: int | None = None,
     for algo in spec.algos:
         load_config_checked(algo, spec.configs.get(algo))  # unknown algo / bad config: fail now
     world_map, world_files = load_worlds(list(spec.worlds))
-    store = ResultStore(out_dir) if resume else None
     _write_run_json(out_dir, spec, world_map, world_files, argv, previous)
-    store = store or ResultStore(out_dir)
+    store = ResultStore(out_dir)
 
     import worlds
     infos = {}
@@ -253,7 +252,7 @@ def run_benchmark(spec: RunSpec, out_dir: str | Path, jobs: int | None = None,
         outcome.crashed = f"a worker process died ({err})"
     finally:
         bar.close()
-        ex.shutdown(cancel=True)
+        ex.shutdown(cancel=bool(pending))
     return outcome
 
 

@@ -96,3 +96,12 @@ class FakeInterrupt(_Base):
         if self.stop:
             raise KeyboardInterrupt
         return super().update(scan, odom, imu, truth)
+
+
+@register("fake_crash")
+class FakeCrash(_Base):
+    """Kills its worker process (as a segfault in a compiled kernel would)."""
+
+    def update(self, scan, odom, imu, truth=None):
+        import os
+        os._exit(3)
