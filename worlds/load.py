@@ -84,7 +84,8 @@ def _points(v: Any, where: str, field: str, minimum: int) -> np.ndarray:
         raise InputError(f"{where}: {field}: expected a list of points [[x, y], ...], got {v!r}")
     pts = [_point(p, where, f"{field}[{i}]") for i, p in enumerate(v)]
     if len(pts) < minimum:
-        raise InputError(f"{where}: {field}: expected at least {minimum} points, got {len(pts)}")
+        raise InputError(f"{where}: {field}: expected at least {minimum} point{'s' if minimum > 1 else ''}, "
+                         f"got {len(pts)}")
     return np.asarray(pts, dtype=np.float64)
 
 
