@@ -42,10 +42,13 @@ def plot_world(ax, world: World, route: np.ndarray | None = None) -> None:
     from matplotlib.patches import PathPatch
     from matplotlib.path import Path as MplPath
 
+    from shapely.geometry.polygon import orient
+
     polys = getattr(world.solid, "geoms", [world.solid])
     for poly in polys:
         if poly.is_empty:
             continue
+        poly = orient(poly, 1.0)  # holes wound against the outline: the nonzero rule leaves them empty
         rings = [poly.exterior, *poly.interiors]
         verts = np.vstack([np.asarray(r.coords) for r in rings])
         codes = np.concatenate([[MplPath.MOVETO] + [MplPath.LINETO] * (len(r.coords) - 2)

@@ -13,7 +13,8 @@ Method (an art-gallery style viewpoint plan, then a travelling-salesman order):
  4. order: nearest neighbour from the start, improved by 2-opt and or-opt moves on the
     shortest-path distances (an open path, the start fixed);
  5. join consecutive viewpoints by shortest paths on the grid graph (Dijkstra,
-    scipy.sparse.csgraph) and smooth by line-of-sight shortcuts that keep the clearance.
+    scipy.sparse.csgraph), smooth by line-of-sight shortcuts that keep the clearance, and
+    cut sharp corners by short chords (pure pursuit follows those without stopping).
 """
 from __future__ import annotations
 
@@ -183,6 +184,32 @@ def _shortcut(path: np.ndarray, world: World, clearance: float) -> np.ndarray:
     return np.asarray(out)
 
 
+def _chamfer(path: np.ndarray, world: World, keep: np.ndarray, cut: float = 0.2,
+             min_clear: float = ROBOT_RADIUS + 0.05) -> np.ndarray:
+    """Cut each corner sharper than 30 degrees by a chord `cut` m along both legs (at most a
+    third of each leg), where the chord keeps min_clear m from walls: gentler turns for
+    pure pursuit. Vertices flagged in `keep` (the viewpoints: what they see depends on
+    standing exactly there) stay."""
+    solid = world.solid
+    out = [path[0]]
+    for i in range(1, len(path) - 1):
+        a, b, c = out[-1], path[i], path[i + 1]
+        u, v = b - a, c - b
+        lu, lv = np.hypot(*u), np.hypot(*v)
+        if lu < 1e-9 or lv < 1e-9:
+            continue
+        turn = np.arccos(np.clip(np.dot(u, v) / (lu * lv), -1.0, 1.0))
+        d = min(cut, lu / 3.0, lv / 3.0)
+        p, q = b - u / lu * d, b + v / lv * d
+        if (not keep[i] and turn > np.radians(30)
+                and shapely.LineString([p, q]).distance(solid) >= min_clear):
+            out.extend([p, q])
+        else:
+            out.append(b)
+    out.append(path[-1])
+    return np.asarray(out)
+
+
 def plan_route(world: World, max_range: float = 3.0, clearance: float = 0.3,
                spacing: float = 0.2) -> np.ndarray:
     """(K, 2) waypoints (m) from the start that let a lidar of `max_range` m see every wall
@@ -215,6 +242,7 @@ def plan_route(world: World, max_range: float = 3.0, clearance: float = 0.3,
     tour = _order(dist[:, nodes])
     # join the viewpoints in order; each leg is smoothed on its own so viewpoints stay
     out = [np.asarray(world.start[:2], dtype=np.float64)]
+    view = [True]
     for a, b in zip(tour[:-1], tour[1:]):
         chain = []
         n = nodes[b]
@@ -224,7 +252,9 @@ def plan_route(world: World, max_range: float = 3.0, clearance: float = 0.3,
         if not chain:
             continue
         leg = np.vstack([out[-1], graph.xy[np.asarray(chain[::-1])]])
-        out.extend(_shortcut(leg, world, clearance)[1:])
+        smooth = _shortcut(leg, world, clearance)[1:]
+        out.extend(smooth)
+        view.extend([False] * (len(smooth) - 1) + [True])
     if len(out) == 1:
         return np.asarray([graph.xy[start_node]])
-    return np.asarray(out[1:])
+    return _chamfer(np.asarray(out), world, np.asarray(view))[1:]

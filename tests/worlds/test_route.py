@@ -103,3 +103,15 @@ def test_greedy_cover():
     chosen = _greedy_cover(sets, np.arange(1, 8))
     assert chosen == [2, 0]
     assert _greedy_cover(sets, np.array([9])) == []
+
+
+def test_chamfer_cuts_free_corners_and_keeps_viewpoints():
+    from worlds.route import _chamfer
+    w = load_world("rectangle_l")
+    path = np.array([[1.0, 1.0], [4.0, 1.0], [4.0, 4.0], [7.0, 4.0]])
+    out = _chamfer(path, w, np.array([True, False, True, False]))
+    # the corner at (4, 1) becomes a 0.2 m chord, the viewpoint at (4, 4) stays
+    np.testing.assert_allclose(out, [[1.0, 1.0], [3.8, 1.0], [4.0, 1.2], [4.0, 4.0], [7.0, 4.0]])
+    # a corner whose chord would come within min_clear of a wall is left alone
+    near = np.array([[1.0, 0.2], [8.8, 0.2], [8.8, 3.0]])
+    np.testing.assert_allclose(_chamfer(near, w, np.zeros(3, bool), min_clear=0.25), near)
