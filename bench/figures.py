@@ -39,8 +39,7 @@ def _overlay(out_dir: Path, fig_dir: Path, row: dict, truth: Grid) -> Path:
     est = load_grid(out_dir / row["map_file"])
     align = {k: float(row.get(f"align_{k}") or 0.0) for k in ("x", "y", "yaw")}
     path = fig_dir / f"overlay_{row['world']}_{row['algo']}.png"
-    title = (f"{row['world']} / {row['algo']} repeat {row['repeat']}: "
-             f"P {row.get('precision', float('nan')):.3f} S {row.get('sensitivity', float('nan')):.3f}")
+    title = f"{row['world']} / {row['algo']}, median repeat ({row['repeat']}) by F1"  # P/S/F1 drawn by metrics
     metrics.save_overlay_png(est, truth, align, str(path), title=title)
     return path
 
