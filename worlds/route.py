@@ -28,6 +28,7 @@ from worlds.grid import Grid
 from worlds.model import ROBOT_RADIUS, World
 from worlds.raster import rasterize
 from worlds.visibility import beam_angles, cast_rays, hit_cells
+from worlds.yamlio import InputError
 
 __all__ = ["plan_route", "route_for"]
 
@@ -219,6 +220,9 @@ def plan_route(world: World, max_range: float = 3.0, clearance: float = 0.3,
     """
     truth = rasterize(world)
     graph = _RobotGraph(world, truth, clearance)
+    if len(graph.xy) == 0:
+        raise InputError(f"{world.source or world.name}: route: no room to plan a route (no cell "
+                         f"of the free space is {ROBOT_RADIUS + 0.01:.3f} m from the walls)")
     start_node = graph.node_of(world.start[:2])
     comp = graph.component(start_node)
     step = max(1, int(round(spacing / truth.resolution)))

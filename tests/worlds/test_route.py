@@ -115,3 +115,14 @@ def test_chamfer_cuts_free_corners_and_keeps_viewpoints():
     # a corner whose chord would come within min_clear of a wall is left alone
     near = np.array([[1.0, 0.2], [8.8, 0.2], [8.8, 3.0]])
     np.testing.assert_allclose(_chamfer(near, w, np.zeros(3, bool), min_clear=0.25), near)
+
+
+def test_no_room_to_plan():
+    from worlds.yamlio import InputError
+    # a 0.24 m box: the start fits (0.105 m from each wall) but no cell centre keeps 0.115 m
+    e = 0.06
+    w = world_from_dict({"walls": {"thickness": 0.1, "polylines": [
+        [[-e, -e], [0.22 + e, -e], [0.22 + e, 0.22 + e], [-e, 0.22 + e], [-e, -e]]]},
+        "robot": {"start": [0.11, 0.11, 0.0]}}, where="tiny.yaml")
+    with pytest.raises(InputError, match="tiny.yaml: route: no room to plan a route"):
+        plan_route(w)
