@@ -21,6 +21,7 @@ Field comments name the Gmapping (ROS slam_gmapping) parameter each field is.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Literal
 
 import numpy as np
 
@@ -31,6 +32,7 @@ from slam.preprocess import PreprocessConfig, preprocess, twist_from_poses
 from slam.pf_filter import (effective_sample_size, motion_std, normalized_weights,
                             sample_motion, systematic_resample)
 from slam.pf_maps import TiledMaps
+from slam.pf_render import render_gmapping, render_surface
 from slam._kernels.pf_match import extract_patches, hill_climb, make_params, proposal_moments
 
 __all__ = ["MotionConfig", "MatcherConfig", "PfConfig", "ParticleFilterSlam"]
@@ -60,7 +62,10 @@ class MatcherConfig:
     iterations: int = 5          # iterations: step halvings of the hill climbing
     lsigma: float = 0.075        # lsigma: m^2, beam log-likelihood = -d^2 / lsigma
     null_likelihood: float = -0.5  # Gmapping's nullLikelihood: unmatched beam = this / lsigma
-    fullness: float = 0.1        # Gmapping's fullnessThreshold: cell occupied for matching above this n/visits
+    # Gmapping's fullnessThreshold (0.1): a cell is occupied for matching above this n / visits.
+    # Raised: with range noise of 2.5 % a wall's returns spread over a band of cells and at
+    # 0.1 the matcher latches onto the band's front edge, pulling poses off the walls
+    fullness: float = 0.3
     ogain: float = 3.0           # ogain: weights smoothed as exp(log w / (ogain * particles))
     lskip: int = 0               # lskip: use every (lskip+1)-th beam for matching
     minimum_score: float = 50.0  # minimumScore (TurtleBot3 value): below it the match is ignored (odometry pose kept)
@@ -96,10 +101,10 @@ class PfConfig:
     map_extent: float = 50.0          # xmin/xmax/ymin/ymax: half side (m) of the square map around the start
     tile: int = 16                    # cells per side of a copy-on-write map tile
     deskew: bool = True               # undo the motion during a revolution (from odometry)
-    # output: keep only occupied cells next to seen free space (the wall faces the lidar saw);
-    # occupied cells behind them (range noise overshooting the wall) become unknown
-    surface_only: bool = True
-    surface_free_visits: int = 3      # a free neighbour must have been crossed this often
+    # output map: "gmapping" = n / visits > occ_thresh as slam_gmapping publishes; "surface" =
+    # that, thinned to the walls' faces (slam/pf_render.py): range noise spreads returns over cells
+    render: Literal["gmapping", "surface"] = "surface"
+    min_hits: float = 2.0             # surface: a face cell needs at least this many returns
     motion: MotionConfig = field(default_factory=MotionConfig)
     matcher: MatcherConfig = field(default_factory=MatcherConfig)
 
@@ -113,21 +118,6 @@ class PfConfig:
                 raise ValueError(f"{name} must be positive, got {getattr(self, name)}")
         if self.tile < 1:
             raise ValueError(f"tile must be >= 1, got {self.tile}")
-
-
-def surface_only(prob: np.ndarray, sure: np.ndarray) -> np.ndarray:
-    """(R, C) map with 1 occupied, 0 free, NaN unknown -> the same with occupied cells that
-    have no 4-neighbour which is free and `sure` ((R, C) bool) set to unknown."""
-    occ = prob == 1.0
-    free = (prob == 0.0) & sure
-    near = np.zeros_like(free)
-    near[1:, :] |= free[:-1, :]
-    near[:-1, :] |= free[1:, :]
-    near[:, 1:] |= free[:, :-1]
-    near[:, :-1] |= free[:, 1:]
-    out = prob.copy()
-    out[occ & ~near] = np.nan
-    return out
 
 
 class _Tree:
@@ -336,12 +326,18 @@ class ParticleFilterSlam:
         for pose, (origin, ends, hit) in zip(upd, self._upd_scans):
             one.insert(pose[None, :], origin, ends, hit)
         counts, r_off, c_off = one.dense_bbox(0)
-        visits = counts[..., 1]
-        prob = np.full(visits.shape, np.nan)
-        seen = visits > 0
-        prob[seen] = (counts[..., 0][seen] / visits[seen] > self.cfg.occ_thresh).astype(np.float64)
-        if self.cfg.surface_only:
-            prob = surface_only(prob, visits >= self.cfg.surface_free_visits)
+        hits, visits = counts[..., 0], counts[..., 1]
+        if self.cfg.render == "surface":
+            rc = np.floor((upd[:, 1::-1] - one.grid_meta[1::-1]) / self.cfg.delta).astype(np.int64)
+            # sums of the returns' positions in cell units of this box
+            rr, cc = np.indices(hits.shape)
+            sum_x = counts[..., 2] / self.cfg.delta + hits * cc
+            sum_y = counts[..., 3] / self.cfg.delta + hits * rr
+            prob = render_surface(hits, visits, sum_x, sum_y, self.cfg.occ_thresh,
+                                  self.cfg.min_hits, rc - np.array([r_off, c_off]))
+        else:
+            prob = render_gmapping(hits, visits, self.cfg.occ_thresh)
+        seen = ~np.isnan(prob)
         origin = one.grid_meta[:2] + np.array([c_off, r_off]) * self.cfg.delta
         if seen.any():
             r = np.nonzero(seen.any(axis=1))[0]

@@ -1,0 +1,89 @@
+"""Rendering the output map of `pf` from its count map (hits and visits per cell).
+
+`gmapping` rendering: occupied where hits / visits > occ_thresh, free where visited and not,
+unknown elsewhere (what slam_gmapping publishes).
+
+`surface` rendering (default): range noise of a few centimetres spreads a wall's returns
+over several cells along the beams, and n / visits marks all of them (the cells behind the
+face see only returns). The face is where the returns are densest across the wall, so:
+  1. occupied candidates as above, with at least `min_hits` returns;
+  2. the candidates' returns are moved by mean shift (two steps, 3 x 3 cells) to the
+     densest line of their band, and the cells they end in are the faces;
+  3. only cells within reach_cells of free space connected to the robot's path survive
+     (the walls' faces; returns overshooting a wall land in pockets the robot never reaches).
+Suppressed cells become unknown. Everything is computed from the filter's own map and path.
+"""
+from __future__ import annotations
+
+import numpy as np
+from scipy import ndimage
+
+__all__ = ["render_gmapping", "render_surface", "reachable_free"]
+
+
+def render_gmapping(hits: np.ndarray, visits: np.ndarray, occ_thresh: float) -> np.ndarray:
+    """(R, C) 1.0 occupied (hits / visits > occ_thresh), 0.0 free, NaN never visited."""
+    prob = np.full(visits.shape, np.nan)
+    seen = visits > 0
+    prob[seen] = (hits[seen] / visits[seen] > occ_thresh).astype(np.float64)
+    return prob
+
+
+def _snap_to_modes(hits, sum_x, sum_y, cand, iterations=2):
+    """(R, C) bool: the cells the candidates' returns converge to by mean shift.
+
+    hits: (R, C) counts; sum_x, sum_y: (R, C) sums of the returns' positions in cell units
+    (column, row coordinates); cand: (R, C) bool. Each candidate starts at its cell centre
+    and moves `iterations` times to the mean of the returns in the 3 x 3 cells around it;
+    the cell it ends in is marked. A wall's returns, spread across a band of cells by range
+    noise, all converge onto the band's densest line, one cell thick.
+    """
+    box = np.ones((3, 3))
+    n = ndimage.correlate(hits, box, mode="constant")
+    sx = ndimage.correlate(sum_x, box, mode="constant")
+    sy = ndimage.correlate(sum_y, box, mode="constant")
+    r, c = np.nonzero(cand)
+    px, py = c + 0.5, r + 0.5
+    rows, cols = hits.shape
+    for _ in range(iterations):
+        cc = np.clip(np.floor(px).astype(int), 0, cols - 1)
+        rr = np.clip(np.floor(py).astype(int), 0, rows - 1)
+        w = n[rr, cc]
+        ok = w > 0
+        px = np.where(ok, sx[rr, cc] / np.where(ok, w, 1), px)
+        py = np.where(ok, sy[rr, cc] / np.where(ok, w, 1), py)
+    out = np.zeros(hits.shape, dtype=bool)
+    out[np.clip(np.floor(py).astype(int), 0, rows - 1), np.clip(np.floor(px).astype(int), 0, cols - 1)] = True
+    return out
+
+
+def reachable_free(prob: np.ndarray, seeds_rc: np.ndarray) -> np.ndarray:
+    """(R, C) bool: free cells (prob == 0) 4-connected through free cells to a seed cell.
+
+    seeds_rc: (K, 2) int rows, cols of cells on the robot's path.
+    """
+    labels, _ = ndimage.label(prob == 0.0)
+    r, c = seeds_rc[:, 0], seeds_rc[:, 1]
+    inside = (r >= 0) & (r < prob.shape[0]) & (c >= 0) & (c < prob.shape[1])
+    keep = np.unique(labels[r[inside], c[inside]])
+    return np.isin(labels, keep[keep > 0])
+
+
+def render_surface(hits: np.ndarray, visits: np.ndarray, sum_x: np.ndarray, sum_y: np.ndarray,
+                   occ_thresh: float, min_hits: float, seeds_rc: np.ndarray,
+                   reach_cells: int = 2) -> np.ndarray:
+    """The `surface` rendering (module docstring). hits, visits: (R, C) counts; sum_x, sum_y:
+    (R, C) sums of the returns' positions in cell units (column, row); seeds_rc: (K, 2) rows,
+    cols of the robot's path; reach_cells: how far (cells) behind reachable free space a
+    face may lie. Returns (R, C) 1.0 / 0.0 / NaN."""
+    prob = render_gmapping(hits, visits, occ_thresh)
+    reach = reachable_free(prob, seeds_rc)
+    near = ndimage.binary_dilation(reach, iterations=reach_cells)
+    occ = prob == 1.0
+    cand = occ & (hits >= min_hits) & near
+    keep = _snap_to_modes(hits, sum_x, sum_y, cand) & near & (visits > 0)
+    out = prob.copy()
+    out[occ & ~keep] = np.nan
+    out[keep] = 1.0
+    out[(prob == 0.0) & ~reach] = np.nan
+    return out
