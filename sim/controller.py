@@ -48,8 +48,10 @@ class PurePursuit:
         keep = np.ones(len(path), bool)
         keep[1:] = np.linalg.norm(np.diff(path, axis=0), axis=1) > 1e-9
         path = path[keep]
-        if len(path) < 2:
-            raise ValueError("a route needs at least one waypoint away from the start")
+        if len(path) == 0:
+            raise ValueError("an empty path")
+        if len(path) == 1:       # nowhere to go: a path of zero length, done at once
+            path = np.vstack([path, path + [1e-6, 0.0]])
         self.cfg = cfg
         self.path = path
         seg = np.diff(path, axis=0)
@@ -61,7 +63,7 @@ class PurePursuit:
                      for p, d, n in zip(path[:-1], seg, self.seg_len)]
         self.s = 0.0            # progress (arc length of the closest point)
         self.v = 0.0
-        self.done = False
+        self.done = self.length < 1e-3
         self.stuck = False
         self._best_s = 0.0
         self._best_t = 0.0

@@ -41,6 +41,7 @@ class RecordConfig:
     odom_rate: float = 30.0        # Hz (TurtleBot3 core publishes odom at 30 Hz)
     imu_rate: float = 100.0        # Hz
     max_duration: float = 3600.0   # s of simulated time
+    min_duration: float = 1.0      # s: the robot stands still at the end until this time
     robot: RobotConfig = field(default_factory=RobotConfig)
     controller: ControllerConfig = field(default_factory=ControllerConfig)
     lidar: LidarConfig = field(default_factory=LidarConfig)
@@ -49,6 +50,8 @@ class RecordConfig:
         for n in ("physics_dt", "control_rate", "odom_rate", "imu_rate", "max_duration"):
             if getattr(self, n) <= 0:
                 raise ValueError(f"{n} must be > 0")
+        if not 0 <= self.min_duration <= self.max_duration:
+            raise ValueError("need 0 <= min_duration <= max_duration")
         for n in ("control_rate", "imu_rate"):
             k = 1.0 / (getattr(self, n) * self.physics_dt)
             if abs(k - round(k)) > 1e-6:
@@ -130,6 +133,10 @@ def _drive(world: World, route: np.ndarray, cfg: RecordConfig, noise: NoiseProfi
         gr = wr * dt_c * r_right + wn.slip_density * math.sqrt(abs(dr)) * e[1]
         vt, wt = twist_from_wheels(gl / dt_c, gr / dt_c, 1.0, 1.0, sep)
         drive(vt, wt, dt, every, gt)
+    # a route that ends (or is empty) early: stand still, so the log holds a few scans
+    while len(wheel) * dt_c < cfg.min_duration - 1e-9:
+        wheel.append((0.0, 0.0))
+        drive(0.0, 0.0, dt, every, gt)
     gt = np.asarray(gt, dtype=np.float64)
     wheel = np.asarray(wheel, dtype=np.float64).reshape(-1, 2)
     # Chipmunk integrates positions before it solves the joints, so the body answers a

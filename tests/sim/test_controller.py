@@ -64,6 +64,8 @@ def test_a_path_passing_near_itself_is_followed_in_order():
     assert ctrl.done and rec[:, 1].max() > 3.7
 
 
-def test_bad_route():
+def test_zero_length_route_is_done_at_once():
+    ctrl = PurePursuit(np.array([[1, 1], [1, 1]], float), ControllerConfig())
+    assert ctrl.done and ctrl.command(1.0, 1.0, 0.0, 0.0, 0.02) == (0.0, 0.0)
     with pytest.raises(ValueError):
-        PurePursuit(np.array([[1, 1], [1, 1]], float), ControllerConfig())
+        PurePursuit(np.zeros((0, 2)), ControllerConfig())

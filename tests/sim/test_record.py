@@ -132,6 +132,22 @@ def test_realistic_odometry_drift_on_swirl_l(seed):
     assert lo <= d["segment_drift"] <= hi
 
 
+def test_world_without_route_drives_the_planned_route():
+    route_for = pytest.importorskip("worlds.route").route_for
+    world = square_room(size=6.0, start=(1.0, 1.0, 0.0))       # no route in the world
+    log = record(world, seed=0, noise="ideal")
+    np.testing.assert_allclose(log.meta["route"], route_for(world))
+    assert log.meta["ending"] == "end" and log.n_scans >= 5
+
+
+def test_standing_still_gives_a_short_log():
+    world = square_room(route=[[1.0, 2.0]])                     # the start itself
+    log = record(world, seed=0, noise="ideal")
+    assert log.meta["ending"] == "end" and log.gt_t[-1] == pytest.approx(1.0)
+    assert log.n_scans == 5
+    np.testing.assert_allclose(log.gt_pose, np.tile([1.0, 2.0, 0.0], (len(log.gt_t), 1)), atol=1e-12)
+
+
 def test_collision_shows_as_odometry_error():
     world = walled_room()
     log = record(world, seed=0, noise="ideal", config={"controller": {"stuck_timeout": 8.0}})
