@@ -99,6 +99,24 @@ def test_ideal_lidar_matches_the_geometry():
     assert r[180] == pytest.approx(0.918, abs=5e-4)
 
 
+def test_ideal_scans_end_on_the_walls_from_each_beams_pose():
+    world = square_room(route=ROOM_ROUTE)
+    log = record(world, seed=0, noise="ideal")
+    inc = log.meta["lidar"]["time_increment"]
+    yaw = np.unwrap(log.gt_pose[:, 2])
+    boundary = world.solid.boundary
+    worst = 0.0
+    for i in range(0, log.n_scans, 7):
+        t = log.scan_t[i] + np.arange(360) * inc
+        x, y, a = (np.interp(t, log.gt_t, c) for c in (log.gt_pose[:, 0], log.gt_pose[:, 1], yaw))
+        lx, ly = x - 0.032 * np.cos(a), y - 0.032 * np.sin(a)
+        r = log.scan_ranges[i]
+        ok = np.isfinite(r)
+        ends = np.c_[lx + r * np.cos(a + log.scan_angles), ly + r * np.sin(a + log.scan_angles)][ok]
+        worst = max(worst, shapely.distance(boundary, shapely.points(ends)).max())
+    assert worst < 0.0006          # 1 mm quantisation (+ interpolation of the pose)
+
+
 def _odom_vs_truth(log):
     gx = np.interp(log.odom_t, log.gt_t, log.gt_pose[:, 0])
     gy = np.interp(log.odom_t, log.gt_t, log.gt_pose[:, 1])
