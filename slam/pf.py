@@ -94,7 +94,9 @@ class PfConfig:
     linear_update: float = 0.2        # linearUpdate (m): filter update after this much travel
     angular_update: float = 0.2       # angularUpdate (rad): ... or after this much rotation
     temporal_update: float = -1.0     # temporalUpdate (s): ... or after this long (< 0: never)
-    max_urange: float = 3.0           # maxUrange (m): beams are cropped here (no hit beyond)
+    # maxUrange (m): beams are cropped here (no hit beyond). TurtleBot3 uses 3.0; the whole
+    # 3.5 m of the LDS-01 constrains the pose along walls better in the 6 m+ rooms
+    max_urange: float = 3.5
     max_range: float = 0.0            # maxRange (m): readings at/after it are no return (0: sensor's)
     delta: float = 0.05               # delta: map resolution (m)
     occ_thresh: float = 0.25          # occ_thresh: output cell occupied when n / visits > this

@@ -8,7 +8,7 @@ over several cells along the beams, and n / visits marks all of them (the cells 
 face see only returns). The face is where the returns are densest across the wall, so:
   1. occupied candidates as above, with at least `min_hits` returns;
   2. the candidates' returns are moved by mean shift (two steps, 3 x 3 cells) to the
-     densest line of their band, and the cells they end in are the faces;
+     densest line of their band; the cells they end in are the faces;
   3. only cells within reach_cells of free space connected to the robot's path survive
      (the walls' faces; returns overshooting a wall land in pockets the robot never reaches).
 Suppressed cells become unknown. Everything is computed from the filter's own map and path.
@@ -30,12 +30,13 @@ def render_gmapping(hits: np.ndarray, visits: np.ndarray, occ_thresh: float) -> 
 
 
 def _snap_to_modes(hits, sum_x, sum_y, cand, iterations=2):
-    """(R, C) bool: the cells the candidates' returns converge to by mean shift.
+    """(R, C) votes: the returns of the candidates, counted in the cells they converge to
+    by mean shift.
 
     hits: (R, C) counts; sum_x, sum_y: (R, C) sums of the returns' positions in cell units
     (column, row coordinates); cand: (R, C) bool. Each candidate starts at its cell centre
     and moves `iterations` times to the mean of the returns in the 3 x 3 cells around it;
-    the cell it ends in is marked. A wall's returns, spread across a band of cells by range
+    the cell it ends in gets the candidate's returns as votes. A wall's returns, spread across a band of cells by range
     noise, all converge onto the band's densest line, one cell thick.
     """
     box = np.ones((3, 3))
@@ -52,9 +53,10 @@ def _snap_to_modes(hits, sum_x, sum_y, cand, iterations=2):
         ok = w > 0
         px = np.where(ok, sx[rr, cc] / np.where(ok, w, 1), px)
         py = np.where(ok, sy[rr, cc] / np.where(ok, w, 1), py)
-    out = np.zeros(hits.shape, dtype=bool)
-    out[np.clip(np.floor(py).astype(int), 0, rows - 1), np.clip(np.floor(px).astype(int), 0, cols - 1)] = True
-    return out
+    votes = np.zeros(hits.shape)
+    np.add.at(votes, (np.clip(np.floor(py).astype(int), 0, rows - 1),
+                      np.clip(np.floor(px).astype(int), 0, cols - 1)), hits[r, c])
+    return votes
 
 
 def reachable_free(prob: np.ndarray, seeds_rc: np.ndarray) -> np.ndarray:
@@ -81,7 +83,8 @@ def render_surface(hits: np.ndarray, visits: np.ndarray, sum_x: np.ndarray, sum_
     near = ndimage.binary_dilation(reach, iterations=reach_cells)
     occ = prob == 1.0
     cand = occ & (hits >= min_hits) & near
-    keep = _snap_to_modes(hits, sum_x, sum_y, cand) & near & (visits > 0)
+    votes = _snap_to_modes(hits, sum_x, sum_y, cand)
+    keep = (votes > 0) & near & (visits > 0)
     out = prob.copy()
     out[occ & ~keep] = np.nan
     out[keep] = 1.0

@@ -1,0 +1,105 @@
+"""The particle-filter SLAM `pf` on short synthetic logs: seeds, odometry bias, bad input."""
+import numpy as np
+import pytest
+
+from sim.log import SensorLog
+from slam.base import ALGORITHMS, run_algorithm
+from slam.pf import ParticleFilterSlam, PfConfig
+from slam.pf_render import render_surface
+from slam.pose import compose, interpolate_poses, relative
+from worlds.yamlio import InputError
+from tests.slam.synthlog import box_room_segments, make_log, square_route
+
+SMALL = {"particles": 10}
+
+
+@pytest.fixture(scope="module")
+def room_log():
+    return make_log(box_room_segments(), square_route(), seed=5, range_sigma=0.01)
+
+
+def _biased(log: SensorLog, scale: float = 1.06, yaw_per_m: float = 0.06) -> SensorLog:
+    """The log with its odometry re-integrated from increments scaled by `scale` and turned
+    by yaw_per_m rad per metre: a known systematic odometry error."""
+    inc = relative(log.odom_pose[:-1], log.odom_pose[1:])
+    inc[:, :2] *= scale
+    inc[:, 2] += yaw_per_m * np.hypot(inc[:, 0], inc[:, 1])
+    poses = [log.odom_pose[0]]
+    for d in inc:
+        poses.append(compose(poses[-1], d))
+    return SensorLog(**{**{k: getattr(log, k) for k in (
+        "scan_t", "scan_ranges", "scan_angles", "odom_t", "odom_twist", "imu_t", "imu_gyro",
+        "imu_accel", "imu_yaw", "gt_t", "gt_pose")}, "odom_pose": np.array(poses), "meta": log.meta})
+
+
+def _rmse(times, poses, log):
+    gt = interpolate_poses(times, log.gt_t, log.gt_pose)
+    return float(np.sqrt(np.mean(np.sum((poses[:, :2] - gt[:, :2]) ** 2, axis=1))))
+
+
+def test_registered_with_gmapping_defaults():
+    run_algorithm  # noqa: B018
+    import slam.algorithms  # noqa: F401
+    assert ALGORITHMS["pf"] is ParticleFilterSlam
+    c = PfConfig()
+    assert (c.particles, c.resample_threshold, c.delta) == (30, 0.5, 0.05)
+    assert (c.motion.srr, c.motion.srt, c.motion.str, c.motion.stt) == (0.1, 0.2, 0.1, 0.2)
+    assert (c.matcher.lsigma, c.matcher.iterations, c.matcher.lstep, c.matcher.astep) == (0.075, 5, 0.05, 0.05)
+
+
+def test_config_rejects_unknown_keys_and_bad_values(room_log):
+    with pytest.raises(InputError, match="did you mean 'particles'"):
+        run_algorithm("pf", room_log, config={"particle": 3})
+    with pytest.raises(InputError, match="particles"):
+        run_algorithm("pf", room_log, config={"particles": 0})
+
+
+def test_log_without_odometry_is_refused(room_log):
+    bare = SensorLog(scan_t=room_log.scan_t, scan_ranges=room_log.scan_ranges,
+                     scan_angles=room_log.scan_angles, meta=room_log.meta)
+    with pytest.raises(InputError, match="'pf' needs wheel odometry"):
+        run_algorithm("pf", bare)
+
+
+def test_same_seed_same_map_other_seed_other_map(room_log):
+    a = run_algorithm("pf", room_log, config=SMALL, seed=1)
+    b = run_algorithm("pf", room_log, config=SMALL, seed=1)
+    c = run_algorithm("pf", room_log, config=SMALL, seed=2)
+    assert a.grid.equals(b.grid)
+    np.testing.assert_array_equal(a.poses, b.poses)
+    assert not np.array_equal(a.poses, c.poses)
+    assert not (a.grid.shape == c.grid.shape and np.array_equal(a.grid.prob, c.grid.prob, equal_nan=True))
+    assert len(a.times) == room_log.n_scans
+    assert a.stats["filter_updates"] > 10
+
+
+def test_filter_beats_biased_odometry(room_log):
+    log = _biased(room_log)
+    odom = interpolate_poses(log.scan_t, log.odom_t, log.odom_pose)
+    odom = compose(log.start_pose, relative(odom[0], odom))
+    odom_err = _rmse(log.scan_t, odom, log)
+    res = run_algorithm("pf", log, config=SMALL, seed=0)
+    pf_err = _rmse(res.times, res.poses, log)
+    assert odom_err > 0.25  # the bias is large
+    assert pf_err < 0.3 * odom_err
+    assert pf_err < 0.06
+
+
+def test_surface_rendering_keeps_one_face_of_a_noisy_wall():
+    rng = np.random.default_rng(0)
+    rows, cols = 20, 40
+    hits = np.zeros((rows, cols))
+    visits = np.zeros((rows, cols))
+    sx = np.zeros((rows, cols))
+    sy = np.zeros((rows, cols))
+    visits[:10] = 50          # free space in front of a wall whose face lies at row 10.5
+    for c in range(2, 38):
+        for y in rng.normal(10.5, 0.8, 60):
+            r = int(np.floor(y))
+            hits[r, c] += 1
+            visits[r, c] += 1
+            sx[r, c] += c + 0.5
+            sy[r, c] += y
+    prob = render_surface(hits, visits, sx, sy, 0.25, 2, np.array([[2, 20]]))
+    occ_rows = np.nonzero(np.nan_to_num(prob, nan=0.0) == 1.0)[0]
+    assert len(occ_rows) >= 30 and np.all(occ_rows == 10)

@@ -1,0 +1,128 @@
+"""slam._kernels.pf_map / pf_match against their plain references, and the tile sharing."""
+import numpy as np
+import pytest
+
+from slam._kernels.pf_map import insert_scan_ref, ray_cells, ray_cells_ref
+from slam._kernels.pf_match import (extract_patches, hill_climb, hill_climb_ref, make_params,
+                                    proposal_moments, proposal_moments_ref,
+                                    score_and_likelihood, score_and_likelihood_ref)
+from slam.pf_maps import TiledMaps
+
+PARAMS = make_params(sigma=0.05, lsigma=0.075, null_likelihood=-0.5, fullness=0.3, kernel=1,
+                     lstep=0.05, astep=0.05, iterations=5, llsamplerange=0.01,
+                     llsamplestep=0.01, lasamplerange=0.005, lasamplestep=0.005)
+ORIGIN = np.array([-0.032, 0.0])
+
+
+def _room_scan(rng, pose, beams=120, size=2.4):
+    """Beam ends (robot frame) of a square room [-size/2, size/2]^2 seen from pose, with noise."""
+    a = np.linspace(-np.pi, np.pi, beams, endpoint=False) + rng.uniform(0, 0.05)
+    c, s = np.cos(pose[2] + a), np.sin(pose[2] + a)
+    half = size / 2
+    with np.errstate(divide="ignore"):
+        tx = np.where(c > 0, (half - pose[0]) / c, (-half - pose[0]) / c)
+        ty = np.where(s > 0, (half - pose[1]) / s, (-half - pose[1]) / s)
+    r = np.minimum(np.abs(tx), np.abs(ty)) + rng.normal(0, 0.005, beams)
+    ends = np.stack([r * np.cos(a), r * np.sin(a)], axis=1) + ORIGIN
+    hit = rng.random(beams) > 0.1
+    return ends, hit
+
+
+def _frees(ends, delta=0.05):
+    d = ends - ORIGIN
+    return ends - delta * d / np.linalg.norm(d, axis=1, keepdims=True)
+
+
+@pytest.mark.kernel
+@pytest.mark.parametrize("seed", range(5))
+def test_ray_cells_matches_clipping(seed):
+    rng = np.random.default_rng(seed)
+    bc = np.empty(400, np.int64)
+    br = np.empty(400, np.int64)
+    for _ in range(60):
+        u0, v0, u1, v1 = rng.uniform(-20, 60, 4)
+        n = ray_cells(u0, v0, u1, v1, bc, br)
+        got = set(zip(bc[:n].tolist(), br[:n].tolist()))
+        ref = ray_cells_ref(u0, v0, u1, v1)
+        # a segment grazing a cell corner within rounding may take either neighbour
+        assert len(got ^ ref) <= 2
+        assert (bc[0], br[0]) == (int(np.floor(u0)), int(np.floor(v0)))
+        assert (bc[n - 1], br[n - 1]) == (int(np.floor(u1)), int(np.floor(v1)))
+        assert np.all(np.abs(np.diff(bc[:n])) + np.abs(np.diff(br[:n])) == 1)
+
+
+@pytest.mark.kernel
+@pytest.mark.parametrize("seed", range(3))
+def test_insert_with_sharing_matches_dense_reference(seed):
+    rng = np.random.default_rng(seed)
+    maps = TiledMaps(3, np.zeros(2), 2.0, 0.05, tile=8, capacity=4)
+    dense = [np.zeros((maps.tables.shape[1] * 8,) * 2 + (4,)) for _ in range(3)]
+    for step in range(3):
+        poses = np.c_[rng.uniform(-0.3, 0.3, (3, 2)), rng.uniform(-np.pi, np.pi, 3)]
+        ends, hit = _room_scan(rng, poses[0])
+        maps.insert(poses, ORIGIN, ends, hit)
+        for i in range(3):
+            insert_scan_ref(dense[i], maps.grid_meta, poses[i], ORIGIN, ends, hit)
+        for i in range(3):
+            got = maps.dense(i)
+            np.testing.assert_allclose(got[..., [0, 2, 3]], dense[i][..., [0, 2, 3]], atol=1e-4)
+            # visits: the walk may differ from the clipping reference at exact corner grazes
+            assert np.sum(got[..., 1] != dense[i][..., 1]) <= 3
+        anc = rng.integers(0, 3, 3)
+        maps.resample(anc)
+        dense = [dense[a].copy() for a in anc]
+
+
+def test_resampled_particles_share_tiles_until_written():
+    maps = TiledMaps(30, np.zeros(2), 25.0, 0.05, tile=16)
+    rng = np.random.default_rng(0)
+    ends, hit = _room_scan(rng, np.zeros(3))
+    maps.insert(np.zeros((30, 3)), ORIGIN, ends, hit)
+    one = maps.tiles_in_use() // 30
+    maps.resample(np.zeros(30, dtype=np.int64))
+    assert maps.tiles_in_use() == one  # 30 particles, one copy of the map
+    maps.insert(np.zeros((30, 3)) + [[0.01, 0, 0]] * 30, ORIGIN, ends, hit)
+    assert maps.tiles_in_use() == 30 * one  # each wrote into all of them: each has its own
+    # a 50 m x 50 m table for 30 particles costs little until tiles are written
+    assert maps.tables.nbytes < 5e6
+
+
+@pytest.mark.kernel
+@pytest.mark.parametrize("seed", range(3))
+def test_score_likelihood_hill_climb_and_proposal_match_references(seed):
+    rng = np.random.default_rng(seed)
+    maps = TiledMaps(2, np.zeros(2), 2.0, 0.05, tile=8)
+    dense = np.zeros((maps.tables.shape[1] * 8,) * 2 + (4,))
+    for _ in range(4):
+        pose = np.r_[rng.uniform(-0.2, 0.2, 2), rng.uniform(-0.1, 0.1)]
+        ends, hit = _room_scan(rng, pose)
+        maps.insert(np.tile(pose, (2, 1)), ORIGIN, ends, hit)
+        insert_scan_ref(dense, maps.grid_meta, pose, ORIGIN, ends, hit)
+    truth = np.array([0.05, -0.03, 0.02])
+    ends, hit = _room_scan(rng, truth)
+    hits = np.ascontiguousarray(ends[hit])
+    frees = _frees(hits)
+    start = truth + np.r_[rng.uniform(-0.04, 0.04, 2), rng.uniform(-0.03, 0.03)]
+    poses = np.stack([start, truth])
+    occ, mean, corner = extract_patches(maps.tables, maps.pool, maps.grid_meta, poses, 40, PARAMS[3])
+    for p in range(2):
+        for q in (poses[p], poses[p] + [0.013, -0.021, 0.01]):
+            got = score_and_likelihood(occ[p], mean[p], corner[p], maps.grid_meta, q, hits, frees, PARAMS)
+            ref = score_and_likelihood_ref(dense, maps.grid_meta, q, hits, frees, PARAMS)
+            np.testing.assert_allclose(got, ref, rtol=1e-5, atol=1e-6)
+    matched, scores = hill_climb(occ, mean, corner, maps.grid_meta, poses, hits, frees, PARAMS)
+    ref_pose, ref_score = hill_climb_ref(dense, maps.grid_meta, start, hits, frees, PARAMS)
+    np.testing.assert_allclose(matched[0], ref_pose, atol=1e-9)
+    assert scores[0] == pytest.approx(ref_score, rel=1e-5)
+    # recovery: from up to 4 cm and 1.7 degrees off, the match lands within a cell and 1.5 degrees
+    assert np.hypot(*(matched[0, :2] - truth[:2])) < 0.05 and abs(matched[0, 2] - truth[2]) < 0.026
+    prior_std = np.full((2, 3), 0.03)
+    m, cov, log_eta = proposal_moments(occ, mean, corner, maps.grid_meta, matched, poses, prior_std,
+                                       hits, frees, PARAMS)
+    for p in range(2):
+        rm, rc, rl = proposal_moments_ref(dense, maps.grid_meta, matched[p], poses[p], prior_std[p],
+                                          hits, frees, PARAMS)
+        np.testing.assert_allclose(m[p], rm, atol=1e-9)
+        np.testing.assert_allclose(cov[p], rc, atol=1e-10)
+        assert log_eta[p] == pytest.approx(rl, rel=1e-6)
+        assert np.all(np.linalg.eigvalsh(cov[p]) >= -1e-15)
