@@ -2,7 +2,7 @@ import numpy as np
 import pytest
 
 from sim.lidar import LidarConfig, apply_range_noise, beam_poses, cast_scans
-from sim.noise import LidarNoise, load_profile
+from sim.noise import load_profile
 from tests.sim.worlds_fixtures import square_room
 
 

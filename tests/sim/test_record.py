@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 import shapely
 
-from sim import RecordConfig, SIM_VERSION, load_record_config, read_log, record, write_log
+from sim import RecordConfig, SIM_VERSION, load_record_config, record, write_log
 from sim.odometry import DRIFT_RANGE_REALISTIC
 from worlds.model import ROBOT_RADIUS
 from worlds.yamlio import InputError
