@@ -124,3 +124,12 @@ def test_import_of_a_missing_file(tmp_path, capsys):
     pytest.importorskip("sim.importers")
     assert main(["import", str(tmp_path / "nothing.log"), "--out", str(tmp_path / "x.npz")]) == 2
     assert "nothing.log" in _error_line(capsys)
+
+
+def test_show_without_a_loadable_world(tmp_path):
+    from sim import record, write_log
+    from tests.sim.worlds_fixtures import square_room
+    log = record(square_room(route=[[3.0, 2.0]]), seed=0, noise="ideal")   # world "square": no file
+    write_log(log, tmp_path / "square.npz")
+    assert main(["show", str(tmp_path / "square.npz"), "--out", str(tmp_path / "s.png")]) == 0
+    assert (tmp_path / "s.png").stat().st_size > 1000
