@@ -10,13 +10,14 @@ Log-odds from the probabilities SLAM packages quote (Hector's update_factor_free
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
 from worlds.grid import Grid
 from slam._kernels.insert import insert_rays_inplace
 
-__all__ = ["LogOddsGrid", "logodds"]
+__all__ = ["LogOddsGrid", "GridConfig", "logodds"]
 
 
 def logodds(p: float) -> float:
@@ -26,24 +27,47 @@ def logodds(p: float) -> float:
     return math.log(p / (1.0 - p))
 
 
+@dataclass(frozen=True)
+class GridConfig:
+    """An occupancy grid's parameters, as they appear in each algorithm's YAML."""
+
+    resolution: float = 0.05   # m per cell
+    p_free: float = 0.4        # occupancy probability a ray's free cell is updated with (log-odds < 0)
+    p_occupied: float = 0.9    # occupancy probability a hit cell is updated with (log-odds > 0)
+    l_min: float = -5.0        # log-odds clamp below (keeps cells able to change back)
+    l_max: float = 5.0         # log-odds clamp above
+    snap_cells: int = 0        # a hit moves back up to this many cells onto a stronger cell on its ray
+
+    def __post_init__(self):
+        if self.resolution <= 0:
+            raise ValueError(f"resolution must be positive, got {self.resolution}")
+        if not (0.0 < self.p_free < 0.5 < self.p_occupied < 1.0):
+            raise ValueError(f"need 0 < p_free < 0.5 < p_occupied < 1, got {self.p_free}, {self.p_occupied}")
+        if not self.l_min < 0 < self.l_max:
+            raise ValueError(f"need l_min < 0 < l_max, got {self.l_min}, {self.l_max}")
+        if self.snap_cells < 0:
+            raise ValueError(f"snap_cells must be >= 0, got {self.snap_cells}")
+
+
 class LogOddsGrid:
     """A growing log-odds occupancy grid.
 
     resolution: m per cell; center: (2,) world x, y the first block is centred on;
     l_free, l_occ: log-odds added to freed / hit cells; l_min, l_max: clamping bounds;
     block: growth step in cells (the grid grows by whole blocks, at least `margin` m
-    beyond any inserted point).
+    beyond any inserted point); snap_cells: see slam._kernels.insert (0 = plain insertion).
     """
 
     def __init__(self, resolution: float = 0.05, center=(0.0, 0.0), l_free: float = logodds(0.4),
                  l_occ: float = logodds(0.9), l_min: float = -5.0, l_max: float = 5.0,
-                 block: int = 64, size: float = 8.0, margin: float = 0.5):
+                 block: int = 64, size: float = 8.0, margin: float = 0.5, snap_cells: int = 0):
         if resolution <= 0:
             raise ValueError(f"resolution must be positive, got {resolution}")
         self.resolution = float(resolution)
         self.l_free, self.l_occ = float(l_free), float(l_occ)
         self.l_min, self.l_max = float(l_min), float(l_max)
         self.block = int(block)
+        self.snap_cells = int(snap_cells)
         self.margin = float(margin)
         n = max(self.block, int(math.ceil(size / self.resolution / self.block)) * self.block)
         # integer cell index of the lower-left corner on the global lattice (multiples of res)
@@ -51,6 +75,12 @@ class LogOddsGrid:
         self._j0 = int(math.floor(center[1] / self.resolution)) - n // 2
         self.logodds = np.full((n, n), np.nan)
         self.version = 0  # bumped by every change, for callers caching derived maps
+
+    @classmethod
+    def from_config(cls, cfg: GridConfig, center=(0.0, 0.0), **kw) -> "LogOddsGrid":
+        """A grid with the resolution and update values of `cfg`, first block centred on `center`."""
+        return cls(cfg.resolution, center, logodds(cfg.p_free), logodds(cfg.p_occupied),
+                   cfg.l_min, cfg.l_max, snap_cells=cfg.snap_cells, **kw)
 
     # --- geometry ---------------------------------------------------------------------
     @property
@@ -110,7 +140,7 @@ class LogOddsGrid:
         allp = np.vstack([pts, o[None, :]])
         self.ensure(allp.min(axis=0), allp.max(axis=0))
         n = insert_rays_inplace(self.logodds, self.meta, o, pts, hits,
-                                self.l_free, self.l_occ, self.l_min, self.l_max)
+                                self.l_free, self.l_occ, self.l_min, self.l_max, self.snap_cells)
         self.version += 1
         return int(n)
 

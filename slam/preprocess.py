@@ -17,7 +17,7 @@ from slam.base import ImuWindow, Scan
 from slam.pose import relative
 
 __all__ = ["PreprocessConfig", "ScanPoints", "preprocess", "twist_from_poses", "yaw_rate_from_imu",
-           "motion_during"]
+           "motion_during", "smooth_ranges"]
 
 
 @dataclass(frozen=True)
@@ -30,11 +30,14 @@ class PreprocessConfig:
     voxel: float = 0.0        # m; > 0 keeps the first point of each voxel of this size
     deskew: bool = True       # undo the motion during the revolution when a twist is known
     free_range: float = 0.0   # m; no-return beams mark free space up to this range (0 = ignore them)
+    smooth_beams: int = 0     # half window: each hit point is replaced by the mean of its 2k+1
+                              #   neighbouring hit beams (range noise / sqrt(2k+1) on flat walls; 0 = off)
+    smooth_jump: float = 0.1  # neighbours whose range differs by more than this fraction are left out
 
     def __post_init__(self):
         if self.angle_step < 1:
             raise ValueError(f"angle_step must be >= 1, got {self.angle_step}")
-        for name in ("range_min", "range_max", "voxel", "free_range"):
+        for name in ("range_min", "range_max", "voxel", "free_range", "smooth_beams", "smooth_jump"):
             if getattr(self, name) < 0:
                 raise ValueError(f"{name} must be >= 0, got {getattr(self, name)}")
 
@@ -67,6 +70,37 @@ def motion_during(twist: np.ndarray, tau: np.ndarray) -> np.ndarray:
     return np.stack([dx, dy, th], axis=-1)
 
 
+def smooth_ranges(ranges: np.ndarray, valid: np.ndarray, half: int, jump: float, step: float,
+                  circular: bool = True) -> tuple[np.ndarray, np.ndarray]:
+    """Mean point of each valid beam's 2*half+1 angular neighbours, in the centre beam's frame.
+
+    ranges: (B,) m; valid: (B,) bool; step: rad between neighbouring beams; circular: the
+    beams close a full revolution (beam B-1 neighbours beam 0). Neighbours that are invalid
+    or whose range differs from the centre beam's by more than `jump` * range (an occluding
+    edge) are left out, so depth jumps keep sharp edges. Returns (along (B,), across (B,)) m:
+    the mean point along the centre beam and across it (to its left).
+    Averaging the points of a flat surface keeps them on the surface and divides the range
+    noise by up to sqrt(2*half + 1); the window is about 2 * half * range * step wide.
+    """
+    B = len(ranges)
+    r = np.where(valid, ranges, 0.0)
+    along = np.zeros(B)
+    across = np.zeros(B)
+    count = np.zeros(B)
+    idx = np.arange(B)
+    for k in range(-half, half + 1):
+        j = idx + k
+        inside = np.ones(B, bool) if circular else (j >= 0) & (j < B)
+        j = np.mod(j, B)
+        rk = r[j]
+        ok = valid & valid[j] & inside & (np.abs(rk - r) <= jump * r)
+        along += np.where(ok, rk * np.cos(k * step), 0.0)
+        across += np.where(ok, rk * np.sin(k * step), 0.0)
+        count += ok
+    count = np.maximum(count, 1)
+    return along / count, across / count
+
+
 def _voxel_keep(pts: np.ndarray, size: float) -> np.ndarray:
     """Indices (sorted) of the first point in each voxel of `size` m."""
     if len(pts) == 0:
@@ -95,10 +129,21 @@ def preprocess(scan: Scan, cfg: PreprocessConfig = PreprocessConfig(),
         hit = np.isfinite(r) & (r > rmin) & (r < rmax)
         miss = (np.isposinf(r) | (np.isfinite(r) & (r >= rmax))) if cfg.free_range > 0 else np.zeros(len(r), bool)
     off = np.asarray(scan.offset, dtype=np.float64)
+    across = np.zeros(len(r))
+    if cfg.smooth_beams > 0 and hit.any():
+        # beams are equally spaced over the revolution: the fan's angle step is the beams' step
+        step = float(np.median(np.diff(angles))) if len(angles) > 1 else 0.0
+        full = len(angles) > 1 and abs(step * len(angles) - 2 * np.pi) < 1e-6 and cfg.angle_step == 1
+        along, across = smooth_ranges(r, hit, cfg.smooth_beams, cfg.smooth_jump,
+                                           step * cfg.angle_step, full)
+        r = np.where(hit, along, r)
 
-    def to_robot(beams: np.ndarray, rng_: np.ndarray) -> np.ndarray:
+    def to_robot(beams: np.ndarray, rng_: np.ndarray, side: np.ndarray | None = None) -> np.ndarray:
         a = angles[beams] + off[2]
-        local = np.stack([off[0] + rng_ * np.cos(a), off[1] + rng_ * np.sin(a)], axis=1)
+        ca, sa = np.cos(a), np.sin(a)
+        if side is None:
+            side = np.zeros(len(beams))
+        local = np.stack([off[0] + rng_ * ca - side * sa, off[1] + rng_ * sa + side * ca], axis=1)
         if cfg.deskew and twist is not None and scan.time_increment > 0 and len(beams):
             m = motion_during(twist, beams * scan.time_increment)
             c, s = np.cos(m[:, 2]), np.sin(m[:, 2])
@@ -107,7 +152,7 @@ def preprocess(scan: Scan, cfg: PreprocessConfig = PreprocessConfig(),
         return local
 
     hb = idx[hit]
-    points = to_robot(hb, r[hit])
+    points = to_robot(hb, r[hit], across[hit])
     if cfg.voxel > 0 and len(points):
         points = points[_voxel_keep(points, cfg.voxel)]
     mb = idx[miss]

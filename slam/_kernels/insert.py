@@ -6,7 +6,8 @@ update (cells found from the sorted crossings of each segment with the grid line
 Update rule for one scan (as Hector's and Cartographer's "each cell once per scan", hits first):
 every cell holding the end point of a hit ray gets `l_occ` once; every other cell crossed by
 any ray (from the sensor origin to the end point; for a no-return ray the end cell too) gets
-`l_free` once. A cell hit in this scan is not also freed by it, so walls seen at grazing
+`l_free` once. Optionally (snap_cells > 0) a hit moves back along its ray onto a cell of
+higher log-odds just before it (see insert_rays_inplace). A cell hit in this scan is not also freed by it, so walls seen at grazing
 angles are not eroded by neighbouring beams. Values are clamped to [l_min, l_max]; NaN means
 "never touched" and counts as 0 before the update. Cells outside the grid are skipped.
 
@@ -37,79 +38,119 @@ def _apply(logodds, r, c, l, l_min, l_max):
 
 
 @njit(cache=True)
-def insert_rays_inplace(logodds, grid_meta, origin_xy, ends_xy, hit_mask, l_free, l_occ, l_min, l_max):
+def _traverse(x0, y0, x1, y1, path):
+    """Cells (col, row) from the cell of (x0, y0) to the cell of (x1, y1), map units, into
+    path (K, 2); returns their number (Amanatides-Woo, 4-connected)."""
+    cx = int(np.floor(x0))
+    cy = int(np.floor(y0))
+    ex = int(np.floor(x1))
+    ey = int(np.floor(y1))
+    dx = x1 - x0
+    dy = y1 - y0
+    if dx > 0:
+        sx = 1
+        tdx = 1.0 / dx
+        tmx = (cx + 1 - x0) * tdx
+    elif dx < 0:
+        sx = -1
+        tdx = -1.0 / dx
+        tmx = (x0 - cx) * tdx
+    else:
+        sx = 0
+        tdx = np.inf
+        tmx = np.inf
+    if dy > 0:
+        sy = 1
+        tdy = 1.0 / dy
+        tmy = (cy + 1 - y0) * tdy
+    elif dy < 0:
+        sy = -1
+        tdy = -1.0 / dy
+        tmy = (y0 - cy) * tdy
+    else:
+        sy = 0
+        tdy = np.inf
+        tmy = np.inf
+    steps = abs(ex - cx) + abs(ey - cy)
+    if steps + 1 > path.shape[0]:
+        steps = path.shape[0] - 1  # cannot happen for rays inside the grid
+    for k in range(steps + 1):
+        path[k, 0] = cx
+        path[k, 1] = cy
+        if k == steps:
+            break
+        if tmx < tmy:
+            cx += sx
+            tmx += tdx
+        else:
+            cy += sy
+            tmy += tdy
+    return steps + 1
+
+
+@njit(cache=True)
+def _value(logodds, r, c, rows, cols):
+    if r < 0 or r >= rows or c < 0 or c >= cols:
+        return -np.inf
+    v = logodds[r, c]
+    return 0.0 if v != v else v
+
+
+@njit(cache=True)
+def insert_rays_inplace(logodds, grid_meta, origin_xy, ends_xy, hit_mask, l_free, l_occ, l_min, l_max,
+                        snap_cells=0):
     """Update `logodds` (rows, cols) in place with the rays origin_xy (2,) -> ends_xy (N, 2) (m).
 
-    hit_mask: (N,) bool, True where the ray ended on an obstacle. Returns the number of cells updated.
+    hit_mask: (N,) bool, True where the ray ended on an obstacle. snap_cells: a hit is moved
+    back along its ray, up to this many cells, while the cell before it holds higher log-odds
+    (before this scan): range noise past a mapped surface then reinforces the surface instead
+    of thickening the wall behind it; the cells between stay untouched. Returns the number of
+    cells updated.
     """
     ox, oy, res = grid_meta[0], grid_meta[1], grid_meta[2]
     rows, cols = int(grid_meta[3]), int(grid_meta[4])
     mark = np.zeros((rows, cols), dtype=np.uint8)
-    n_upd = 0
+    path = np.empty((rows + cols + 4, 2), dtype=np.int64)
     n = ends_xy.shape[0]
-    # pass 1: hit cells
+    hit_at = np.full(n, -1, dtype=np.int64)   # path index of each ray's (snapped) hit cell
+    hit_rc = np.full((n, 2), -1, dtype=np.int64)
+    x0 = (origin_xy[0] - ox) / res
+    y0 = (origin_xy[1] - oy) / res
+    # pass 1: where each hit ray's hit lands (read-only, so the order of rays does not matter)
     for i in range(n):
         if not hit_mask[i]:
             continue
-        c = int(np.floor((ends_xy[i, 0] - ox) / res))
-        r = int(np.floor((ends_xy[i, 1] - oy) / res))
-        if r < 0 or r >= rows or c < 0 or c >= cols or mark[r, c] == _HIT:
+        m = _traverse(x0, y0, (ends_xy[i, 0] - ox) / res, (ends_xy[i, 1] - oy) / res, path)
+        k = m - 1
+        for _ in range(snap_cells):
+            if k == 0:
+                break
+            if (_value(logodds, path[k - 1, 1], path[k - 1, 0], rows, cols)
+                    > _value(logodds, path[k, 1], path[k, 0], rows, cols)):
+                k -= 1
+            else:
+                break
+        hit_at[i] = k
+        hit_rc[i, 0] = path[k, 1]
+        hit_rc[i, 1] = path[k, 0]
+    n_upd = 0
+    for i in range(n):
+        r, c = hit_rc[i, 0], hit_rc[i, 1]
+        if hit_at[i] < 0 or r < 0 or r >= rows or c < 0 or c >= cols or mark[r, c] == _HIT:
             continue
         mark[r, c] = _HIT
         _apply(logodds, r, c, l_occ, l_min, l_max)
         n_upd += 1
-    # pass 2: free cells along every ray (exact traversal in map units)
-    x0 = (origin_xy[0] - ox) / res
-    y0 = (origin_xy[1] - oy) / res
-    cx0 = int(np.floor(x0))
-    cy0 = int(np.floor(y0))
+    # pass 2: free cells along every ray, up to its hit cell (no-return rays: to the end)
     for i in range(n):
-        x1 = (ends_xy[i, 0] - ox) / res
-        y1 = (ends_xy[i, 1] - oy) / res
-        ex = int(np.floor(x1))
-        ey = int(np.floor(y1))
-        dx = x1 - x0
-        dy = y1 - y0
-        cx, cy = cx0, cy0
-        if dx > 0:
-            sx = 1
-            tdx = 1.0 / dx
-            tmx = (cx + 1 - x0) * tdx
-        elif dx < 0:
-            sx = -1
-            tdx = -1.0 / dx
-            tmx = (x0 - cx) * tdx
-        else:
-            sx = 0
-            tdx = np.inf
-            tmx = np.inf
-        if dy > 0:
-            sy = 1
-            tdy = 1.0 / dy
-            tmy = (cy + 1 - y0) * tdy
-        elif dy < 0:
-            sy = -1
-            tdy = -1.0 / dy
-            tmy = (y0 - cy) * tdy
-        else:
-            sy = 0
-            tdy = np.inf
-            tmy = np.inf
-        steps = abs(ex - cx0) + abs(ey - cy0)
-        last = steps if not hit_mask[i] else steps - 1  # index of the last freed cell
+        m = _traverse(x0, y0, (ends_xy[i, 0] - ox) / res, (ends_xy[i, 1] - oy) / res, path)
+        last = hit_at[i] - 1 if hit_mask[i] else m - 1
         for k in range(last + 1):
+            cx, cy = path[k, 0], path[k, 1]
             if 0 <= cy < rows and 0 <= cx < cols and mark[cy, cx] == _UNTOUCHED:
                 mark[cy, cx] = _FREED
                 _apply(logodds, cy, cx, l_free, l_min, l_max)
                 n_upd += 1
-            if k == steps:
-                break
-            if tmx < tmy:
-                cx += sx
-                tmx += tdx
-            else:
-                cy += sy
-                tmy += tdy
     return n_upd
 
 
@@ -134,21 +175,30 @@ def _cells_on_segment(x0: float, y0: float, x1: float, y1: float) -> np.ndarray:
     return cells[keep]
 
 
-def insert_rays_ref(logodds, grid_meta, origin_xy, ends_xy, hit_mask, l_free, l_occ, l_min, l_max):
+def insert_rays_ref(logodds, grid_meta, origin_xy, ends_xy, hit_mask, l_free, l_occ, l_min, l_max,
+                    snap_cells=0):
     """Reference of insert_rays_inplace: returns a new array, input unchanged."""
     out = np.array(logodds, dtype=np.float64, copy=True)
     ox, oy, res, rows, cols = grid_meta
     rows, cols = int(rows), int(cols)
+    base = np.nan_to_num(out, nan=0.0)
+
+    def value(cell):
+        c, r = cell
+        return base[r, c] if 0 <= r < rows and 0 <= c < cols else -np.inf
+
     o = ((origin_xy[0] - ox) / res, (origin_xy[1] - oy) / res)
     hits, frees = set(), set()
     for (x, y), hit in zip(ends_xy, hit_mask):
         e = ((x - ox) / res, (y - oy) / res)
         cells = [tuple(cr) for cr in _cells_on_segment(o[0], o[1], e[0], e[1])]
         if hit:
-            hits.add(cells[-1])
-            cells = cells[:-1]
+            k = len(cells) - 1
+            while k > 0 and len(cells) - 1 - k < snap_cells and value(cells[k - 1]) > value(cells[k]):
+                k -= 1
+            hits.add(cells[k])
+            cells = cells[:k]
         frees.update(cells)
-    base = np.nan_to_num(out, nan=0.0)
     for cells, l in ((hits, l_occ), (frees - hits, l_free)):
         for c, r in cells:
             if 0 <= r < rows and 0 <= c < cols:

@@ -1,0 +1,191 @@
+"""`gn`: Gauss-Newton scan-to-map SLAM, the Hector SLAM family (Kohlbrecher, von Stryk,
+Meyer, Klingauf: "A flexible and scalable SLAM system with full 3D motion estimation",
+SSRR 2011; the hector_mapping ROS package).
+
+Each scan is matched against the map built so far by Gauss-Newton on a smoothly
+(bilinearly) interpolated occupancy map, minimising sum_i (1 - M(S_i(xi)))^2 over all scan
+end points, from the coarsest map level to the finest. Every level is its own log-odds map
+updated with the scan, but only once the robot has moved map_update_distance_thresh or
+turned map_update_angle_thresh since the last map update. No wheel odometry; the IMU yaw
+rate optionally predicts the rotation between scans. The start pose is the log's.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from worlds.grid import Grid
+from slam.base import ImuWindow, OdomDelta, Scan, register
+from slam._kernels.gn_step import gn_normal_equations
+from slam.mapper import Mapper, MapperConfig, insert_scan_points
+from slam.occupancy import LogOddsGrid, logodds
+from slam.pose import relative, transform_points, wrap_angle
+from slam.preprocess import PreprocessConfig, preprocess, twist_from_poses, yaw_rate_from_imu
+
+__all__ = ["GnConfig", "GaussNewtonSlam", "match_scan"]
+
+
+@dataclass(frozen=True)
+class GnConfig:
+    """Hector SLAM parameters (hector_mapping names in brackets), defaults for a 5 Hz, 3.5 m lidar."""
+
+    map_resolution: float = 0.05          # [map_resolution] m, cell size of the finest level
+    map_multi_res_levels: int = 3         # [map_multi_res_levels] levels; level k has 2^k x the cell size
+    update_factor_free: float = 0.4       # [update_factor_free] occupancy probability of a ray's free cells
+    update_factor_occupied: float = 0.9   # [update_factor_occupied] occupancy probability of a hit cell
+    map_update_distance_thresh: float = 0.4   # [map_update_distance_thresh] m moved before the map is updated
+    map_update_angle_thresh: float = 0.9      # [map_update_angle_thresh] rad turned before the map is updated
+    iterations_finest: int = 5            # Gauss-Newton steps at the finest level (hector: 5, hard-coded)
+    iterations_coarse: int = 3            # Gauss-Newton steps at every coarser level (hector: 3, hard-coded)
+    max_angle_step: float = 0.2           # rad, clamp of one step's rotation (hector: 0.2, hard-coded)
+    logodds_min: float = -50.0            # log-odds clamp below (hector: none)
+    logodds_max: float = 50.0             # log-odds clamp above (hector: 50, GridMapLogOdds)
+    use_imu: bool = True                  # predict the rotation between scans from the gyro (hector: via the imu/tf prior)
+    deskew_velocity_window: float = 1.0   # s; de-skew translation uses the mean velocity of the estimates over this window (0 = rotation only)
+    preprocess: PreprocessConfig = field(default_factory=PreprocessConfig)  # [laser_min_dist, laser_max_dist]: range limits
+    output_map: MapperConfig = field(default_factory=MapperConfig)  # the map the run outputs: every scan at its matched pose
+
+    def __post_init__(self):
+        if self.map_resolution <= 0:
+            raise ValueError(f"map_resolution must be positive, got {self.map_resolution}")
+        if self.map_multi_res_levels < 1:
+            raise ValueError(f"map_multi_res_levels must be >= 1, got {self.map_multi_res_levels}")
+        if not 0 < self.update_factor_free < 0.5 < self.update_factor_occupied < 1:
+            raise ValueError("need 0 < update_factor_free < 0.5 < update_factor_occupied < 1")
+        if self.iterations_finest < 1 or self.iterations_coarse < 0:
+            raise ValueError("iterations_finest must be >= 1 and iterations_coarse >= 0")
+
+    @property
+    def resolutions(self) -> list[float]:
+        """Cell size (m) of each level, finest first."""
+        return [self.map_resolution * 2 ** k for k in range(self.map_multi_res_levels)]
+
+
+class _Level:
+    """One map level: its log-odds grid and the probability image the matcher reads (cached)."""
+
+    def __init__(self, grid: LogOddsGrid):
+        self.grid = grid
+        self._prob = None
+        self._meta = None
+        self._version = -1
+
+    def prob_meta(self) -> tuple[np.ndarray, np.ndarray]:
+        if self._version != self.grid.version:
+            # never-touched cells read as log-odds 0 (p = 0.5), as in hector's grid
+            self._prob = np.ascontiguousarray(self.grid.prob(unknown=0.5))
+            self._meta = self.grid.meta
+            self._version = self.grid.version
+        return self._prob, self._meta
+
+
+def match_scan(levels: list[tuple[np.ndarray, np.ndarray]], points: np.ndarray, pose: np.ndarray,
+               iterations: list[int], max_angle_step: float = 0.2) -> np.ndarray:
+    """Hector's coarse-to-fine Gauss-Newton scan matching.
+
+    levels: [(prob (rows, cols), grid_meta (5,))] finest first; points: (N, 2) m in the robot
+    frame; pose: (3,) initial world pose; iterations: steps per level, finest first.
+    Returns the refined (3,) pose.
+    """
+    est = np.array(pose, dtype=np.float64)
+    pts = np.ascontiguousarray(points, dtype=np.float64)
+    for (prob, meta), n_it in reversed(list(zip(levels, iterations))):
+        for _ in range(n_it):
+            H, g, _ = gn_normal_equations(prob, meta, pts, est)
+            if H[0, 0] == 0.0 or H[1, 1] == 0.0:
+                break
+            try:
+                step = np.linalg.solve(H, g)
+            except np.linalg.LinAlgError:
+                break
+            step[2] = min(max(step[2], -max_angle_step), max_angle_step)
+            est = est + step
+            est[2] = wrap_angle(est[2])
+    return est
+
+
+@register("gn")
+class GaussNewtonSlam:
+    """Hector-style SLAM: scan-to-map Gauss-Newton on a multi-resolution occupancy map."""
+
+    config_class = GnConfig
+
+    def __init__(self, cfg: GnConfig, start: np.ndarray, rng: np.random.Generator):
+        self.cfg = cfg
+        l_free, l_occ = logodds(cfg.update_factor_free), logodds(cfg.update_factor_occupied)
+        self.levels = [_Level(LogOddsGrid(res, start[:2], l_free, l_occ, cfg.logodds_min, cfg.logodds_max))
+                       for res in cfg.resolutions]
+        self.iterations = [cfg.iterations_finest] + [cfg.iterations_coarse] * (cfg.map_multi_res_levels - 1)
+        self.pose = np.asarray(start, dtype=np.float64).copy()
+        self._last_update_pose: np.ndarray | None = None
+        self._times: list[float] = []
+        self._poses: list[np.ndarray] = []
+        self._map_updates = 0
+        self.mapper = Mapper(cfg.output_map, center=start[:2])
+
+    def update(self, scan: Scan, odom: OdomDelta | None, imu: ImuWindow | None) -> np.ndarray:
+        predicted, twist = self._predict(scan, imu)
+        pts = preprocess(scan, self.cfg.preprocess, twist)
+        if self._last_update_pose is None:
+            self.pose = predicted  # the first scan builds the map at the start pose
+        elif len(pts.points):
+            self.pose = match_scan([lv.prob_meta() for lv in self.levels], pts.points, predicted,
+                                   self.iterations, self.cfg.max_angle_step)
+        else:
+            self.pose = predicted
+        if self._should_update_map():
+            self._insert(pts)
+        self.mapper.insert(scan, self.pose, twist)
+        self._times.append(scan.t)
+        self._poses.append(self.pose.copy())
+        return self.pose
+
+    def _predict(self, scan: Scan, imu: ImuWindow | None) -> tuple[np.ndarray, np.ndarray | None]:
+        """Pose prior (last pose, yaw advanced by the gyro) and the twist for de-skewing."""
+        pred = self.pose.copy()
+        if not self._poses:
+            return pred, None
+        dt = scan.t - self._times[-1]
+        twist = np.zeros(3)
+        win = self.cfg.deskew_velocity_window
+        if win > 0 and len(self._poses) > 1:
+            # a mean over several scans: the velocity of the last pair alone feeds the matching
+            # noise back into the de-skew and makes the estimate oscillate
+            k = len(self._times) - 1
+            j = k
+            while j > 0 and self._times[k] - self._times[j - 1] <= win + 1e-9:
+                j -= 1
+            if j < k:
+                twist = twist_from_poses(self._poses[j], self._poses[k], self._times[k] - self._times[j])
+        w = yaw_rate_from_imu(imu) if self.cfg.use_imu else None
+        if w is not None:
+            pred[2] = wrap_angle(pred[2] + w * dt)
+            twist[2] = w
+        return pred, twist
+
+    def _should_update_map(self) -> bool:
+        if self._last_update_pose is None:
+            return True
+        d = relative(self._last_update_pose, self.pose)
+        return (math.hypot(d[0], d[1]) > self.cfg.map_update_distance_thresh
+                or abs(d[2]) > self.cfg.map_update_angle_thresh)
+
+    def _insert(self, pts) -> None:
+        for lv in self.levels:
+            insert_scan_points(lv.grid, pts, self.pose)
+        self._last_update_pose = self.pose.copy()
+        self._map_updates += 1
+
+    def map(self) -> Grid:
+        return self.mapper.to_grid()
+
+    def finish(self) -> None:
+        pass
+
+    def trajectory(self) -> tuple[np.ndarray, np.ndarray]:
+        return np.asarray(self._times, dtype=np.float64), np.asarray(self._poses, dtype=np.float64).reshape(-1, 3)
+
+    def extra_stats(self) -> dict:
+        return {"map_updates": self._map_updates}
