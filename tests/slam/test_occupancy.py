@@ -18,14 +18,14 @@ def test_grows_to_hold_far_points_and_keeps_old_cells():
     g.insert_scan([0.0, 0.0], np.array([[0.5, 0.3]]))
     before = g.to_grid(crop=False)
     occ_xy = before.occupied_xy()
-    g.insert_scan([0.0, 0.0], np.array([[7.3, -5.1]]))
+    g.insert_scan([0.0, 0.0], np.array([[7.31, -5.12]]))
     after = g.to_grid(crop=False)
     assert after.rows > before.rows and after.cols > before.cols
     # the origin stays on the lattice and old cells keep their world position
     assert np.allclose(np.round(after.origin[:2] / 0.05), after.origin[:2] / 0.05)
     r, c = after.world_to_cell(occ_xy)
     assert (after.prob[r, c] >= 0.65).all()
-    r, c = after.world_to_cell(np.array([[7.3, -5.1]]))
+    r, c = after.world_to_cell(np.array([[7.31, -5.12]]))
     assert after.prob[r[0], c[0]] == pytest.approx(0.9)
     assert after.shape[0] % 16 == 0 and after.shape[1] % 16 == 0
 
