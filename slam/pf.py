@@ -103,6 +103,9 @@ class PfConfig:
     map_extent: float = 50.0          # xmin/xmax/ymin/ymax: half side (m) of the square map around the start
     tile: int = 16                    # cells per side of a copy-on-write map tile
     deskew: bool = True               # undo the motion during a revolution (from odometry)
+    # output map from every scan (poses between updates from the odometry) or, as Gmapping,
+    # from the update scans only
+    map_all_scans: bool = False
     # output map: "gmapping" = n / visits > occ_thresh as slam_gmapping publishes; "surface" =
     # that, thinned to the walls' faces (slam/pf_render.py): range noise spreads returns over cells
     render: Literal["gmapping", "surface"] = "surface"
@@ -177,6 +180,8 @@ class ParticleFilterSlam:
         # per update: odometry pose and the scan (robot frame) inserted
         self._upd_odom: list[np.ndarray] = []
         self._upd_scans: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
+        # (scan index, origin, ends, hit) of the scans the output map is rendered from
+        self._all_scans: list[tuple[int, np.ndarray, np.ndarray, np.ndarray]] = []
         self._last_update_poses = self.poses.copy()
         self._prior_var = np.zeros(3)
         self._linear = self._angular = 0.0
@@ -200,6 +205,9 @@ class ParticleFilterSlam:
                 self.refine_by_proposal(hits, frees, odom.pose)
                 self.resample_if_needed()
             self.insert(origin, ends, hit, odom.pose, scan.t)
+        elif self.cfg.map_all_scans:
+            _, _, origin, ends, hit = self.beams(scan, odom)
+            self._all_scans.append((len(self._scan_t), origin, ends, hit))
         self._scan_t.append(scan.t)
         self._scan_odom.append(np.asarray(odom.pose, dtype=np.float64).copy())
         self._scan_update.append(len(self._upd_odom) - 1)
@@ -293,6 +301,7 @@ class ParticleFilterSlam:
         self.nodes = self.tree.add(self.poses, self.nodes)
         self._upd_odom.append(np.asarray(odom_pose, dtype=np.float64).copy())
         self._upd_scans.append((origin, ends, hit))
+        self._all_scans.append((len(self._scan_t), origin, ends, hit))
         self._last_update_poses = self.poses.copy()
         self._prior_var = np.zeros(3)
         self._linear = self._angular = 0.0
@@ -320,13 +329,14 @@ class ParticleFilterSlam:
         return np.asarray(self._scan_t), poses.reshape(-1, 3)
 
     def map(self) -> Grid:
-        """The best particle's map, re-rendered from the update scans along its trajectory:
-        1.0 where n / visits > occ_thresh, 0.0 elsewhere seen, NaN unknown; cropped."""
+        """The best particle's map, re-rendered from the scans along its trajectory (see
+        render and map_all_scans): 1.0 occupied, 0.0 free, NaN unknown; cropped."""
         upd = self.best_updates()
         one = TiledMaps(1, self.maps.grid_meta[:2] + self.maps.grid_meta[3] * self.cfg.delta / 2,
                         self.cfg.map_extent, self.cfg.delta, self.cfg.tile)
-        for pose, (origin, ends, hit) in zip(upd, self._upd_scans):
-            one.insert(pose[None, :], origin, ends, hit)
+        _, traj = self.trajectory()
+        for i, origin, ends, hit in self._all_scans:
+            one.insert(traj[i][None, :], origin, ends, hit)
         counts, r_off, c_off = one.dense_bbox(0)
         hits, visits = counts[..., 0], counts[..., 1]
         if self.cfg.render == "surface":
