@@ -137,19 +137,28 @@ def score_candidates_ref(grid: np.ndarray, cells: np.ndarray, wx: int, wy: int) 
     return out
 
 
-def best_candidate_ref(grid: np.ndarray, cells: np.ndarray, wx: int, wy: int) -> tuple[int, int, int, float]:
-    """Brute force: (k, dx, dy, score) of the best candidate, by scoring all of them."""
+def best_candidate_ref(grid: np.ndarray, cells: np.ndarray, wx: int, wy: int,
+                       exclude=(0, 0, -1)) -> tuple[int, int, int, float]:
+    """Brute force: (k, dx, dy, score) of the best candidate, by scoring all of them;
+    exclude (x, y, r): shifts with |dx - x| <= r and |dy - y| <= r are left out (r < 0: none)."""
     s = score_candidates_ref(np.asarray(grid, np.float32).astype(np.float64), cells, wx, wy)
+    ex, ey, er = exclude
+    if er >= 0:
+        dxs = np.arange(-wx, wx + 1)[None, None, :]
+        dys = np.arange(-wy, wy + 1)[None, :, None]
+        s = np.where((np.abs(dxs - ex) <= er) & (np.abs(dys - ey) <= er), -np.inf, s)
     k, a, b = np.unravel_index(int(np.argmax(s)), s.shape)
     return int(k), int(b - wx), int(a - wy), float(s[k, a, b])
 
 
 @njit(cache=True)
-def bnb_search(grids, cells, wx, wy, min_score):
+def bnb_search(grids, cells, wx, wy, min_score, ex_x=0, ex_y=0, ex_r=-1):
     """Branch and bound over rotations and cell shifts (Hess et al. 2016, Algorithm 3).
 
     grids: from max_grids (depth D = grids.shape[0]-1); cells: (K, P, 2) int32; wx, wy: shift
-    windows (|dx| <= wx, |dy| <= wy); min_score: leaves must score above it.
+    windows (|dx| <= wx, |dy| <= wy); min_score: leaves must score above it; ex_x, ex_y, ex_r:
+    shifts within ex_r cells (Chebyshev) of (ex_x, ex_y) are excluded (ex_r < 0: none), to
+    find the best match elsewhere (an ambiguity check).
     Returns (k, dx, dy, score); k = -1 when no candidate beats min_score.
     """
     D = grids.shape[0] - 1
@@ -203,6 +212,10 @@ def bnb_search(grids, cells, wx, wy, min_score):
         if s <= best:
             continue
         k, dx, dy, h = sk[top], sx[top], sy[top], sh[top]
+        if ex_r >= 0:
+            size = (1 << h) - 1
+            if dx >= ex_x - ex_r and dx + size <= ex_x + ex_r and dy >= ex_y - ex_r and dy + size <= ex_y + ex_r:
+                continue        # the whole block lies in the excluded square
         if h == 0:
             best, best_k, best_x, best_y = s, k, dx, dy
             continue

@@ -2,7 +2,7 @@
 
 Minimises over the pose xi = (x, y, theta)
     sum_i (w_occ / sqrt(N) * (1 - M(T_xi p_i)))^2 + (w_t * (t - t_prior))^2 + (w_r * (theta - theta_prior))^2
-where M is the bilinearly interpolated probability grid (slam._kernels.interp), with a few
+(with per-point weights w_i / sum w in place of 1/N when given) where M is the bilinearly interpolated probability grid (slam._kernels.interp), with a few
 Levenberg-Marquardt steps (Cartographer runs ceres with bicubic interpolation; bilinear is
 the shared core's interpolation and gives the same minimum up to a fraction of a cell).
 
@@ -20,11 +20,15 @@ __all__ = ["match_lm", "match_lm_ref"]
 
 
 @njit(cache=True)
-def _cost_grad(prob, meta, pts, pose, prior, w_occ, w_t, w_r, H, g):
+def _cost_grad(prob, meta, pts, wts, pose, prior, w_occ, w_t, w_r, H, g):
     ox, oy, res = meta[0], meta[1], meta[2]
     rows, cols = int(meta[3]), int(meta[4])
     n = pts.shape[0]
-    s = w_occ / np.sqrt(max(n, 1))
+    wsum = 0.0
+    for k in range(n):
+        wsum += wts[k]
+    if wsum <= 0.0:
+        wsum = 1.0
     c, sn = np.cos(pose[2]), np.sin(pose[2])
     for a in range(3):
         g[a] = 0.0
@@ -36,6 +40,7 @@ def _cost_grad(prob, meta, pts, pose, prior, w_occ, w_t, w_r, H, g):
         x = pose[0] + c * px - sn * py
         y = pose[1] + sn * px + c * py
         m, mx, my = interp_point(prob, ox, oy, res, rows, cols, x, y)
+        s = w_occ * np.sqrt(wts[k] / wsum)
         r = s * (1.0 - m)
         j0 = -s * mx
         j1 = -s * my
@@ -66,11 +71,12 @@ def _cost_grad(prob, meta, pts, pose, prior, w_occ, w_t, w_r, H, g):
 
 
 @njit(cache=True)
-def match_lm(prob, meta, pts, pose0, prior, w_occ, w_t, w_r, iterations):
+def match_lm(prob, meta, pts, wts, pose0, prior, w_occ, w_t, w_r, iterations):
     """Pose minimising the scan-matching cost, from pose0.
 
     prob: (rows, cols) finite probabilities; meta: (5,) [ox, oy, res, rows, cols]; pts: (N, 2)
-    m in the robot frame; pose0, prior: (3,) x, y, yaw (yaw prior as an unwrapped angle near
+    m in the robot frame; wts: (N,) point weights (normalised to sum 1 inside; all equal =
+    Cartographer's 1/N); pose0, prior: (3,) x, y, yaw (yaw prior as an unwrapped angle near
     pose0's); w_occ, w_t, w_r: occupied-space, translation, rotation weights.
     Returns (pose (3,), final cost).
     """
@@ -79,7 +85,7 @@ def match_lm(prob, meta, pts, pose0, prior, w_occ, w_t, w_r, iterations):
     g = np.zeros(3)
     Ht = np.zeros((3, 3))
     gt = np.zeros(3)
-    cost = _cost_grad(prob, meta, pts, pose, prior, w_occ, w_t, w_r, H, g)
+    cost = _cost_grad(prob, meta, pts, wts, pose, prior, w_occ, w_t, w_r, H, g)
     lam = 1e-3
     for _ in range(iterations):
         A = H.copy()
@@ -87,7 +93,7 @@ def match_lm(prob, meta, pts, pose0, prior, w_occ, w_t, w_r, iterations):
             A[a, a] += lam * (H[a, a] + 1e-9)
         step = np.linalg.solve(A, -g)
         trial = pose + step
-        tcost = _cost_grad(prob, meta, pts, trial, prior, w_occ, w_t, w_r, Ht, gt)
+        tcost = _cost_grad(prob, meta, pts, wts, trial, prior, w_occ, w_t, w_r, Ht, gt)
         if tcost < cost:
             pose = trial
             done = cost - tcost < 1e-10 * cost
@@ -104,11 +110,12 @@ def match_lm(prob, meta, pts, pose0, prior, w_occ, w_t, w_r, iterations):
     return pose, cost
 
 
-def match_lm_ref(prob, meta, pts, pose0, prior, w_occ, w_t, w_r, iterations=50):
+def match_lm_ref(prob, meta, pts, wts, pose0, prior, w_occ, w_t, w_r, iterations=50):
     """Reference: scipy least squares over the same residuals with numpy interpolation."""
     from scipy.optimize import least_squares
     pts = np.asarray(pts, np.float64)
-    s = w_occ / np.sqrt(max(len(pts), 1))
+    wts = np.asarray(wts, np.float64)
+    s = w_occ * np.sqrt(wts / wts.sum())
 
     def fun(p):
         c, sn = np.cos(p[2]), np.sin(p[2])

@@ -83,4 +83,5 @@ class GraphSlam:
         return {"nodes": len(self.graph.node_local), "submaps": len(self.graph.submap_global),
                 "loop_closures": len(self.graph.loops),
                 "loop_closure_attempts": self.graph.builder.attempts,
+                "loop_closures_rejected": self.graph.rejected,
                 "optimizations": self.graph.n_optimizations}

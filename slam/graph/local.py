@@ -18,7 +18,7 @@ from slam.pose import compose, relative, transform_points, wrap_angle
 from slam.preprocess import PreprocessConfig, preprocess
 from slam.graph.config import LocalConfig, MotionFilterConfig
 from slam.graph.filters import adaptive_voxel_filter, voxel_filter
-from slam.graph.scan_matching import ceres_match, real_time_correlative_match
+from slam.graph.scan_matching import ceres_match, range_weights, real_time_correlative_match
 from slam.graph.submaps import ActiveSubmaps
 
 __all__ = ["LocalSlam", "LocalResult", "MotionFilter"]
@@ -113,7 +113,10 @@ class LocalSlam:
             if self.cfg.use_online_correlative_scan_matching:
                 start = real_time_correlative_match(prob, meta, match_pts, pred,
                                                     self.cfg.real_time_correlative_scan_matcher)
-            pose = ceres_match(prob, meta, match_pts, start, pred, self.cfg.ceres_scan_matcher)
+            w = range_weights(match_pts, self.cfg.match_near_range)
+            if self.cfg.ignore_unknown_points:
+                w = w * submap.known_at(transform_points(start, match_pts))
+            pose = ceres_match(prob, meta, match_pts, start, pred, self.cfg.ceres_scan_matcher, w)
         pose = np.array([pose[0], pose[1], wrap_angle(pose[2])])
         self.prev_pose, self.prev_t = self.pose, self.t
         self.pose, self.t = pose, scan.t

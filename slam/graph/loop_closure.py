@@ -6,6 +6,9 @@ current relative pose estimate; a match scoring above min_score is refined by le
 on the submap grid (the constraint builder's own ceres_scan_matcher options) and becomes a
 loop-closure constraint with the loop_closure weights. Which pairs are tried is decided per
 submap by a fixed-ratio sampler, as Cartographer's FixedRatioSampler (deterministic).
+Ours: a match whose translation is pinned in one direction only (information ratio below
+min_information_ratio: a straight corridor, where any shift along it scores the same) is
+rejected, since its position along the corridor is a guess.
 """
 from __future__ import annotations
 
@@ -13,12 +16,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from slam.pose import compose, inverse, relative
+from slam._kernels.interp import interp_value_grad
+from slam.pose import compose, relative, transform_points
 from slam.graph.config import ConstraintBuilderConfig
 from slam.graph.scan_matching import FastCorrelativeMatcher, ceres_match
 from slam.graph.submaps import Submap
 
-__all__ = ["FixedRatioSampler", "LoopConstraint", "ConstraintBuilder"]
+__all__ = ["FixedRatioSampler", "LoopConstraint", "ConstraintBuilder", "information_ratio"]
 
 
 class FixedRatioSampler:
@@ -55,6 +59,7 @@ class ConstraintBuilder:
         self.matchers: dict[int, FastCorrelativeMatcher] = {}
         self.samplers: dict[int, FixedRatioSampler] = {}
         self.attempts = 0
+        self.degenerate = 0
 
     def add_finished_submap(self, submap: Submap) -> None:
         """Precompute the branch-and-bound grids of a submap that gets no more scans."""
@@ -73,10 +78,25 @@ class ConstraintBuilder:
         self.attempts += 1
         # Initial guess: the node in the submap's local grid frame via the global poses.
         initial = compose(submap.local_pose, relative(submap_global, node_global))
-        found = self.matchers[submap.index].match(points, initial, self.cfg.min_score)
+        found = self.matchers[submap.index].match(points, initial, self.cfg.min_score,
+                                                  self.cfg.ambiguity_radius, self.cfg.ambiguity_margin)
         if found is None:
             return None
         pose, score = found
         prob, meta = submap.probabilities()
         refined = ceres_match(prob, meta, points, pose, pose, self.cfg.ceres_scan_matcher)
+        if self.cfg.min_information_ratio > 0:
+            if information_ratio(prob, meta, points, refined) < self.cfg.min_information_ratio:
+                self.degenerate += 1
+                return None
         return LoopConstraint(submap.index, node, relative(submap.local_pose, refined), score)
+
+
+def information_ratio(prob: np.ndarray, meta: np.ndarray, points: np.ndarray, pose: np.ndarray) -> float:
+    """Smallest over largest eigenvalue of the translation information sum(grad M grad M^T)
+    of the points (N, 2, robot frame) at `pose` on the grid: near 0 when the match slides
+    freely along one direction (a featureless corridor), 1 when both are pinned."""
+    g = interp_value_grad(prob, meta, np.ascontiguousarray(transform_points(pose, points)))
+    info = g[:, 1:].T @ g[:, 1:]
+    ev = np.linalg.eigvalsh(info)
+    return float(ev[0] / ev[1]) if ev[1] > 0 else 0.0

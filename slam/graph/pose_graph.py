@@ -36,6 +36,7 @@ class PoseGraph:
         self.builder = ConstraintBuilder(cfg.constraint_builder)
         self.correction = np.zeros(3)               # local -> global
         self.n_optimizations = 0
+        self.rejected = 0
         self._since_opt = 0
 
     def add_node(self, local_pose: np.ndarray, hits: np.ndarray, inserted_into: tuple,
@@ -103,9 +104,21 @@ class PoseGraph:
         poses = np.vstack([np.array(self.submap_global), np.array(self.node_global)])
         fixed = np.zeros(len(poses), bool)
         fixed[0] = True
-        out = optimize_poses(poses, self.constraints(), fixed,
-                             huber_scale=self.cfg.optimization_problem.huber_scale,
-                             max_iterations=self.cfg.optimization_problem.max_num_iterations)
+        op = self.cfg.optimization_problem
+        for _ in range(4):
+            out = optimize_poses(poses, self.constraints(), fixed, huber_scale=op.huber_scale,
+                                 max_iterations=op.max_num_iterations)
+            if op.max_loop_residual <= 0 or not self.loops:
+                break
+            # Ours: a loop closure the optimum still disagrees with by more than max_loop_residual
+            # is taken for a false match, dropped, and the problem solved again.
+            err = np.array([np.hypot(*(relative(out[c.submap], out[ns + c.node])[:2] - c.z[:2]))
+                            for c in self.loops])
+            bad = err > op.max_loop_residual
+            if not bad.any():
+                break
+            self.rejected += int(bad.sum())
+            self.loops = [c for c, b in zip(self.loops, bad) if not b]
         self.submap_global = [p for p in out[:ns]]
         self.node_global = [p for p in out[ns:]]
         last = ns - 1

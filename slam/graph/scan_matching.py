@@ -20,7 +20,7 @@ from slam._kernels.correlative import bnb_search, max_grids, score_candidates
 from slam._kernels.graph_match import match_lm
 from slam.graph.config import CeresScanMatcherConfig, FastCorrelativeConfig, RealTimeCorrelativeConfig
 
-__all__ = ["angular_step", "discretize", "real_time_correlative_match", "ceres_match",
+__all__ = ["range_weights", "angular_step", "discretize", "real_time_correlative_match", "ceres_match",
            "FastCorrelativeMatcher"]
 
 
@@ -66,12 +66,22 @@ def real_time_correlative_match(prob: np.ndarray, meta: np.ndarray, points: np.n
     return np.array([pose[0] + d[b], pose[1] + d[a], pose[2] + offsets[k]])
 
 
+def range_weights(points: np.ndarray, near_range: float) -> np.ndarray:
+    """(N,) min(1, (near_range / range)^2): inverse range variance of the LDS-01, whose error
+    grows in proportion to the range beyond ~0.5 m. near_range <= 0: all ones."""
+    if near_range <= 0:
+        return np.ones(len(points))
+    r = np.hypot(points[:, 0], points[:, 1])
+    return np.minimum(1.0, (near_range / np.maximum(r, 1e-6)) ** 2)
+
+
 def ceres_match(prob: np.ndarray, meta: np.ndarray, points: np.ndarray, start: np.ndarray,
-                prior: np.ndarray, cfg: CeresScanMatcherConfig) -> np.ndarray:
+                prior: np.ndarray, cfg: CeresScanMatcherConfig, weights: np.ndarray | None = None) -> np.ndarray:
     """Pose (3,) from least squares started at `start`; translation pulled toward prior[:2],
-    rotation toward start[2] (as Cartographer's ceres matcher)."""
+    rotation toward start[2] (as Cartographer's ceres matcher); weights: (N,) per point or None."""
     target = np.array([prior[0], prior[1], start[2]])
-    pose, _ = match_lm(prob, meta, np.ascontiguousarray(points, dtype=np.float64),
+    w = np.ones(len(points)) if weights is None else np.asarray(weights, np.float64)
+    pose, _ = match_lm(prob, meta, np.ascontiguousarray(points, dtype=np.float64), w,
                        np.asarray(start, np.float64), target, cfg.occupied_space_weight,
                        cfg.translation_weight, cfg.rotation_weight, cfg.max_num_iterations)
     return pose
@@ -85,8 +95,13 @@ class FastCorrelativeMatcher:
         self.meta = np.asarray(meta, np.float64)
         self.grids = max_grids(np.asarray(prob, np.float32), cfg.branch_and_bound_depth)
 
-    def match(self, points: np.ndarray, pose: np.ndarray, min_score: float) -> tuple[np.ndarray, float] | None:
-        """Search around `pose` (3,) in the submap's frame; (best pose, score) or None."""
+    def match(self, points: np.ndarray, pose: np.ndarray, min_score: float, ambiguity_radius: float = 0.0,
+              ambiguity_margin: float = 0.0) -> tuple[np.ndarray, float] | None:
+        """Search around `pose` (3,) in the submap's frame; (best pose, score) or None.
+
+        ambiguity_radius > 0 (m, ours): also reject the match when a pose farther than this
+        from the best one scores within ambiguity_margin of it (a corridor, a repeated room).
+        """
         if len(points) == 0:
             return None
         step, n_ang, w = _window(points, self.meta, self.cfg.linear_search_window,
@@ -96,5 +111,10 @@ class FastCorrelativeMatcher:
         k, dx, dy, score = bnb_search(self.grids, cells, w, w, min_score)
         if k < 0:
             return None
+        if ambiguity_radius > 0:
+            r = int(math.ceil(ambiguity_radius / self.meta[2]))
+            k2, *_ = bnb_search(self.grids, cells, w, w, score - ambiguity_margin, dx, dy, r)
+            if k2 >= 0:
+                return None
         res = self.meta[2]
         return np.array([pose[0] + dx * res, pose[1] + dy * res, pose[2] + offsets[k]]), float(score)

@@ -15,6 +15,8 @@ from slam.graph.config import SubmapsConfig
 
 __all__ = ["Submap", "ActiveSubmaps"]
 
+_BANDS = np.array([0.0, 1.0, 1.5, 2.0, 2.5, 3.0])
+
 
 class Submap:
     """One probability-grid submap in the local frame.
@@ -42,8 +44,36 @@ class Submap:
         pts = np.vstack([hits_xy, misses_xy]) if self.cfg.insert_free_space else hits_xy
         mask = np.zeros(len(pts), bool)
         mask[:len(hits_xy)] = True
-        self.grid.insert_scan(origin_xy, pts, mask)
+        near = self.cfg.hit_near_range
+        if near <= 0:
+            self.grid.insert_scan(origin_xy, pts, mask)
+        else:
+            # Ours: hit odds scaled by min(1, (near / range)^2), the inverse range variance of the
+            # LDS-01, in range bands (one insertion each), so far hits smear the walls less.
+            rng = np.hypot(pts[:, 0] - origin_xy[0], pts[:, 1] - origin_xy[1])
+            band = np.digitize(rng, _BANDS)
+            l_occ = self.grid.l_occ
+            try:
+                for b in np.unique(band):
+                    sel = band == b
+                    mid = 0.5 * (_BANDS[b - 1] + min(_BANDS[b] if b < len(_BANDS) else 4.0, 4.0))
+                    self.grid.l_occ = l_occ * min(1.0, (near / max(mid, 1e-6)) ** 2)
+                    self.grid.insert_scan(origin_xy, pts[sel], mask[sel])
+            finally:
+                self.grid.l_occ = l_occ
         self.num_range_data += 1
+
+    def known_at(self, xy: np.ndarray) -> np.ndarray:
+        """(N,) bool: the cell under each point (N, 2) local frame m has been observed."""
+        res = self.grid.resolution
+        ox, oy = self.grid.origin
+        c = np.floor((xy[:, 0] - ox) / res).astype(np.int64)
+        r = np.floor((xy[:, 1] - oy) / res).astype(np.int64)
+        rows, cols = self.grid.shape
+        ok = (r >= 0) & (r < rows) & (c >= 0) & (c < cols)
+        out = np.zeros(len(xy), bool)
+        out[ok] = ~np.isnan(self.grid.logodds[r[ok], c[ok]])
+        return out
 
     def probabilities(self) -> tuple[np.ndarray, np.ndarray]:
         """((rows, cols) probabilities with unknown = min_probability, (5,) grid meta)."""

@@ -48,3 +48,17 @@ def test_branch_and_bound_respects_min_score(rng):
     assert k == -1
     k, *_ = bnb_search(max_grids(grid, 3), cells, w, w, best - 1e-3)
     assert k >= 0
+
+
+@pytest.mark.kernel
+@pytest.mark.parametrize("seed", range(6))
+def test_branch_and_bound_with_exclusion_equals_brute_force(seed):
+    rng = np.random.default_rng(100 + seed)
+    grid, cells, w = _problem(rng, w=8)
+    k0, dx0, dy0, _ = best_candidate_ref(grid, cells, w, w)
+    ex = (dx0, dy0, 1 + seed % 3)
+    k, dx, dy, s = bnb_search(max_grids(grid, 3), cells, w, w, 0.0, *ex)
+    rk, rdx, rdy, rs = best_candidate_ref(grid, cells, w, w, exclude=ex)
+    assert (k, dx, dy) == (rk, rdx, rdy)
+    assert max(abs(dx - dx0), abs(dy - dy0)) > ex[2]
+    assert s == pytest.approx(rs, rel=1e-5)
