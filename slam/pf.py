@@ -251,21 +251,29 @@ class ParticleFilterSlam:
     def refine_by_proposal(self, hits: np.ndarray, frees: np.ndarray, odom_pose: np.ndarray):
         """Scan matching, then the Gaussian proposal around the matched pose; weights *= eta."""
         m, c = self.maps, self.cfg
-        # patches reach the farthest beam end plus room for the matcher's moves
+        # per particle, a dense patch of its map: the reach of the farthest beam end plus
+        # room for the matcher's moves, clipped to the tiles the particle has written
         reach = float(np.max(np.linalg.norm(hits, axis=1))) if len(hits) else 0.0
         half = int(np.ceil((reach + 0.5) / c.delta))
-        occ, mean_xy, corner = extract_patches(m.tables, m.pool, m.grid_meta, self.poses, half,
-                                               c.matcher.fullness)
-        patches = (occ, mean_xy, corner, m.grid_meta)
-        matched, score = hill_climb(*patches, self.poses, hits, frees, self.params)
-        start = np.where((score > c.matcher.minimum_score)[:, None], matched, self.poses)
-        start[:, 2] = wrap_angle(start[:, 2])
         moved = relative(self._upd_odom[-1], odom_pose)
         prior_mean = compose(self._last_update_poses, moved)
         prior_std = np.maximum(np.sqrt(self._prior_var), np.asarray(c.motion.prior_min_std))
-        prior_std = np.tile(prior_std, (len(start), 1))
-        mean, cov, log_eta = proposal_moments(*patches, start, prior_mean, prior_std, hits, frees,
-                                              self.params)
+        n = len(self.poses)
+        start = np.empty((n, 3))
+        mean = np.empty((n, 3))
+        cov = np.empty((n, 3, 3))
+        log_eta = np.empty(n)
+        for p in range(n):
+            box = self._patch_box(p, half)
+            occ, mean_xy, corner = extract_patches(m.tables[p:p + 1], m.pool, m.grid_meta, box,
+                                                   c.matcher.fullness)
+            patch = (occ, mean_xy, corner, m.grid_meta)
+            pose = self.poses[p:p + 1]
+            matched, score = hill_climb(*patch, pose, hits, frees, self.params)
+            start[p] = matched[0] if score[0] > c.matcher.minimum_score else pose[0]
+            mu, cv, le = proposal_moments(*patch, start[p:p + 1], prior_mean[p:p + 1],
+                                          prior_std[None, :], hits, frees, self.params)
+            mean[p], cov[p], log_eta[p] = mu[0], cv[0], le[0]
         # a tiny jitter keeps the Cholesky factor defined when the grid likelihood is one-peaked
         chol = np.linalg.cholesky(cov + np.diag([1e-8, 1e-8, 1e-8]))
         z = self.rng.standard_normal((len(start), 3))
@@ -273,6 +281,18 @@ class ParticleFilterSlam:
         self.poses[:, 2] = wrap_angle(self.poses[:, 2])
         self.log_w += log_eta
         self.weight_sum += log_eta
+
+    def _patch_box(self, p: int, half: int) -> np.ndarray:
+        """(1, 4) first row, column, rows, columns of particle p's patch."""
+        meta, t = self.maps.grid_meta, self.maps.tile
+        r = int(np.floor((self.poses[p, 1] - meta[1]) / meta[2]))
+        col = int(np.floor((self.poses[p, 0] - meta[0]) / meta[2]))
+        r0, r1, c0, c1 = r - half, r + half, col - half, col + half
+        a, b = np.nonzero(self.maps.tables[p] >= 0)
+        if len(a):
+            r0, r1 = max(r0, a.min() * t), min(r1, (a.max() + 1) * t)
+            c0, c1 = max(c0, b.min() * t), min(c1, (b.max() + 1) * t)
+        return np.array([[r0, c0, max(r1 - r0, 0), max(c1 - c0, 0)]], dtype=np.int64)
 
     def resample_if_needed(self) -> None:
         """Low-variance resampling when the effective sample size is below the threshold."""

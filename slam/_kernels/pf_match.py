@@ -43,32 +43,34 @@ def make_params(**kw) -> np.ndarray:
 
 
 @njit(cache=True)
-def extract_patches(tables, pool, grid_meta, poses, half, fullness):
-    """Dense views of each particle's map around its pose, for fast repeated scoring.
+def extract_patches(tables, pool, grid_meta, boxes, fullness):
+    """Dense views of each particle's map in a box of cells, for fast repeated scoring.
 
-    A square of 2 * half cells centred on each pose: occ (N, S, S) int8 (1 where
-    n / visits > fullness), mean (N, S, S, 2) float32 world x, y of the mean hit point,
-    corner (N, 2) int64 grid row, col of the patch's first cell. Cells outside count as unknown.
+    boxes: (N, 4) int64 first row, first column, rows, columns of each particle's box.
+    Returns occ (N, R, C) int8 (1 where n / visits > fullness), mean (N, R, C, 2) float32
+    world x, y of the mean hit point, corner (N, 2) int64 (the boxes' first row, column);
+    R, C are the largest box sizes. Cells outside the grid or a box count as unknown.
     """
     ox, oy, res = grid_meta[0], grid_meta[1], grid_meta[2]
     rows, cols, tile = int(grid_meta[3]), int(grid_meta[4]), int(grid_meta[5])
-    n = poses.shape[0]
-    size = 2 * half
-    occ = np.zeros((n, size, size), dtype=np.int8)
-    mean = np.zeros((n, size, size, 2), dtype=np.float32)
+    n = boxes.shape[0]
+    size_r = max(1, boxes[:, 2].max())
+    size_c = max(1, boxes[:, 3].max())
+    occ = np.zeros((n, size_r, size_c), dtype=np.int8)
+    mean = np.zeros((n, size_r, size_c, 2), dtype=np.float32)
     corner = np.empty((n, 2), dtype=np.int64)
     for p in range(n):
-        r0 = int(math.floor((poses[p, 1] - oy) / res)) - half
-        c0 = int(math.floor((poses[p, 0] - ox) / res)) - half
+        r0 = boxes[p, 0]
+        c0 = boxes[p, 1]
         corner[p, 0] = r0
         corner[p, 1] = c0
-        for i in range(size):
+        for i in range(boxes[p, 2]):
             r = r0 + i
             if r < 0 or r >= rows:
                 continue
             tr = r // tile
             lr = r - tr * tile
-            for j in range(size):
+            for j in range(boxes[p, 3]):
                 c = c0 + j
                 if c < 0 or c >= cols:
                     continue

@@ -104,7 +104,9 @@ def test_score_likelihood_hill_climb_and_proposal_match_references(seed):
     frees = _frees(hits)
     start = truth + np.r_[rng.uniform(-0.04, 0.04, 2), rng.uniform(-0.03, 0.03)]
     poses = np.stack([start, truth])
-    occ, mean, corner = extract_patches(maps.tables, maps.pool, maps.grid_meta, poses, 40, PARAMS[3])
+    cells = np.floor((poses[:, 1::-1] - maps.grid_meta[1::-1]) / 0.05).astype(np.int64) - 40
+    boxes = np.c_[cells, np.full((2, 2), 80)]
+    occ, mean, corner = extract_patches(maps.tables, maps.pool, maps.grid_meta, boxes, PARAMS[3])
     for p in range(2):
         for q in (poses[p], poses[p] + [0.013, -0.021, 0.01]):
             got = score_and_likelihood(occ[p], mean[p], corner[p], maps.grid_meta, q, hits, frees, PARAMS)
