@@ -61,16 +61,24 @@ def test_log_without_odometry_is_refused(room_log):
         run_algorithm("pf", bare)
 
 
+def _head(log: SensorLog, n: int) -> SensorLog:
+    """The first n scans of the log (the other sensors kept whole)."""
+    arrays = {k: getattr(log, k) for k in ("scan_angles", "odom_t", "odom_pose", "odom_twist",
+                                            "imu_t", "imu_gyro", "imu_accel", "imu_yaw", "gt_t", "gt_pose")}
+    return SensorLog(scan_t=log.scan_t[:n], scan_ranges=log.scan_ranges[:n], meta=log.meta, **arrays)
+
+
 def test_same_seed_same_map_other_seed_other_map(room_log):
-    a = run_algorithm("pf", room_log, config=SMALL, seed=1)
-    b = run_algorithm("pf", room_log, config=SMALL, seed=1)
-    c = run_algorithm("pf", room_log, config=SMALL, seed=2)
+    log = _head(room_log, 100)
+    a = run_algorithm("pf", log, config=SMALL, seed=1)
+    b = run_algorithm("pf", log, config=SMALL, seed=1)
+    c = run_algorithm("pf", log, config=SMALL, seed=2)
     assert a.grid.equals(b.grid)
     np.testing.assert_array_equal(a.poses, b.poses)
     assert not np.array_equal(a.poses, c.poses)
     assert not (a.grid.shape == c.grid.shape and np.array_equal(a.grid.prob, c.grid.prob, equal_nan=True))
-    assert len(a.times) == room_log.n_scans
-    assert a.stats["filter_updates"] > 10
+    assert len(a.times) == log.n_scans
+    assert a.stats["filter_updates"] > 5
 
 
 def test_filter_beats_biased_odometry(room_log):
