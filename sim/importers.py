@@ -20,10 +20,10 @@ counted in meta.messages and otherwise skipped.
 Conventions (sim/log.py): beam angles in the lidar frame, from the message when it has them,
 else the documented defaults (180 or 181 beams: 1 degree steps, 360 or 361 beams: 0.5 degree
 steps, other counts: 180 degrees / n; all starting at -90 degrees). A reading at the sensor's
-maximum is a no return (inf): the Radish logs mark it with a value just below the largest
-reading of the file (81.83, 81.91, 50.0, about 51.1, 32.767 m), so readings within
-`NO_RETURN_MARGIN` of the file's largest reading, or at or above the range the message or a
-PARAM declares, become inf.
+maximum is a no return (inf): the Radish logs mark it with one frequent value at the top of
+the file's readings (81.83, 81.91, 50.0, 51.15, 32.767 m, with neighbours a few cm below), so
+readings within `NO_RETURN_MARGIN` below that marker or above it, or at or above the range the
+message or a PARAM declares, become inf.
 Odometry: the robot pose fields of FLASER / ROBOTLASER1 (one exact pose per scan) when the
 scans carry them, else the ODOM lines. The .gfs LASER_READING pose is not used: it equals
 the pose of the next ODOM line, about 0.2 s after the scan (README of the Radish data).
@@ -48,6 +48,7 @@ __all__ = ["import_log", "detect_format", "default_angles", "FORMATS", "NO_RETUR
 
 FORMATS = ("carmen", "gfs")
 NO_RETURN_MARGIN = 0.1  # m: the Radish no-return markers spread over about 0.05 m below the top
+MARKER_WINDOW = 0.5     # m: the marker is searched this close to the file's largest reading
 # A few out-of-order stamps are glitches (intel: one scan 1.1 s early); many mean the times were
 # printed with too few digits (%g), and the log's timing is lost.
 MAX_DROPPED_FRACTION = 0.01
@@ -186,10 +187,10 @@ class _Accumulator:
                              "logs printed with %g timestamps lose them")
         scan_t = np.array(self.scan_t)[keep]
         ranges = np.array(self.scan_ranges)[keep]
-        file_max = float(np.max(ranges)) if ranges.size else 0.0
-        threshold = min(self.declared_max, file_max - NO_RETURN_MARGIN)
+        marker = _no_return_marker(ranges)
+        threshold = min(self.declared_max, marker - NO_RETURN_MARGIN)
         ranges = np.where((ranges >= threshold) | (ranges <= 0.0), np.inf, ranges)
-        range_max = float(min(self.declared_max, file_max))
+        range_max = float(min(self.declared_max, marker))
 
         offset = np.zeros(3)
         if self.robot_pose:
@@ -364,6 +365,19 @@ def _parse_gfs_line(acc: _Accumulator, tokens: list[str], lineno: int) -> None:
 
 
 # --- helpers ---------------------------------------------------------------------------------
+
+def _no_return_marker(ranges: np.ndarray) -> float:
+    """The value a log writes for "no return": the most frequent reading within
+    MARKER_WINDOW of the largest one (a few stray readings can lie above the marker: acapulco
+    has 51.25 and 51.2 above 9264 readings of 51.15); the largest reading if none repeats."""
+    if ranges.size == 0:
+        return 0.0
+    top = ranges[ranges >= ranges.max() - MARKER_WINDOW]
+    values, counts = np.unique(top, return_counts=True)
+    if counts.max() < 2:
+        return float(ranges.max())
+    return float(values[np.argmax(counts)])
+
 
 def _increasing_subsequence(t: np.ndarray) -> np.ndarray:
     """(N,) bool mask of a longest strictly increasing subsequence of t (patience sorting):

@@ -139,6 +139,16 @@ def test_no_return_marker_and_values(tmp_path):
     assert log.meta["messages"] == {"FLASER": 2, "NEFF": 1, "ODOM": 1}
 
 
+def test_no_return_marker_below_stray_maxima(tmp_path):
+    # acapulco: 9264 readings of 51.15, 3020 of 51.14, one stray 51.25 above the marker
+    r = np.full(181, 7.0)
+    r[:40], r[40:50], r[50], r[51] = 51.15, 51.14, 51.25, 50.9
+    log = import_log(_write(tmp_path, "m.log", [_flaser(1.0, r), _flaser(2.0, np.full(181, 7.0))]))
+    assert np.all(np.isinf(log.scan_ranges[0, :51]))
+    assert log.scan_ranges[0, 51] == pytest.approx(50.9)
+    assert log.meta["lidar"]["range_max"] == pytest.approx(51.15)
+
+
 @pytest.mark.parametrize("bad, pattern", [
     (lambda line: line.rsplit(" ", 1)[0], "line 2: FLASER: expected 191 fields"),
     (lambda line: line.replace(" 5 ", " five ", 1), "line 2: .*not a number: 'five'"),
