@@ -82,8 +82,8 @@ def _bars(fig_dir: Path, rows: list[dict], run: dict | None) -> Path:
     agg = aggregate(rows)
     worlds = world_order(rows, run)
     algos = algo_order(r["algo"] for r in rows)
-    fig, axes = plt.subplots(2, 1, figsize=(max(6, 1.4 * len(worlds) * max(1, len(algos)) / 2), 6),
-                             sharex=True)
+    width_in = min(14.0, max(6.0, 0.35 * len(worlds) * max(1, len(algos)) + 2.0))
+    fig, axes = plt.subplots(2, 1, figsize=(width_in, 6), sharex=True)
     width = 0.8 / max(1, len(algos))
     x = np.arange(len(worlds))
     for ax, metric in zip(axes, ("precision", "sensitivity")):
