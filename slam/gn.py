@@ -42,9 +42,14 @@ class GnConfig:
     max_angle_step: float = 0.2           # rad, clamp of one step's rotation (hector: 0.2, hard-coded)
     logodds_min: float = -50.0            # log-odds clamp below (hector: none)
     logodds_max: float = 50.0             # log-odds clamp above (hector: 50, GridMapLogOdds)
+    check_prior: bool = True              # also match the finest level from the prior, keep the better (not in hector)
     use_imu: bool = True                  # predict the rotation between scans from the gyro (hector: via the imu/tf prior)
     deskew_velocity_window: float = 1.0   # s; de-skew translation uses the mean velocity of the estimates over this window (0 = rotation only)
-    preprocess: PreprocessConfig = field(default_factory=PreprocessConfig)  # [laser_min_dist, laser_max_dist]: range limits
+    # scan points for matching ([laser_min_dist, laser_max_dist] are its range limits); smoothing
+    # over 9 beams divides the realistic range noise by up to 3 (not in hector)
+    preprocess: PreprocessConfig = field(default_factory=lambda: PreprocessConfig(smooth_beams=4))
+    far_range: float = 2.0                # m; hits beyond it update the matching levels with far_factor_occupied (0 = off)
+    far_factor_occupied: float = 0.6      # occupancy probability of far hits: far ranges are noisier (not in hector)
     output_map: MapperConfig = field(default_factory=MapperConfig)  # the map the run outputs: every scan at its matched pose
 
     def __post_init__(self):
@@ -81,28 +86,43 @@ class _Level:
         return self._prob, self._meta
 
 
+def _gauss_newton(prob, meta, pts, est, n_it, max_angle_step):
+    """n_it Gauss-Newton steps on one level; returns (pose, cost at the returned pose)."""
+    for _ in range(n_it):
+        H, g, _ = gn_normal_equations(prob, meta, pts, est)
+        if H[0, 0] == 0.0 or H[1, 1] == 0.0:
+            break
+        try:
+            step = np.linalg.solve(H, g)
+        except np.linalg.LinAlgError:
+            break
+        step[2] = min(max(step[2], -max_angle_step), max_angle_step)
+        est = est + step
+        est[2] = wrap_angle(est[2])
+    return est, gn_normal_equations(prob, meta, pts, est)[2]
+
+
 def match_scan(levels: list[tuple[np.ndarray, np.ndarray]], points: np.ndarray, pose: np.ndarray,
-               iterations: list[int], max_angle_step: float = 0.2) -> np.ndarray:
+               iterations: list[int], max_angle_step: float = 0.2, check_prior: bool = True) -> np.ndarray:
     """Hector's coarse-to-fine Gauss-Newton scan matching.
 
     levels: [(prob (rows, cols), grid_meta (5,))] finest first; points: (N, 2) m in the robot
     frame; pose: (3,) initial world pose; iterations: steps per level, finest first.
-    Returns the refined (3,) pose.
+    check_prior: also run the finest level from `pose` itself and keep whichever end has the
+    lower cost (a coarse level can be biased by up to half its cell, out of the finest
+    level's reach). Returns the refined (3,) pose.
     """
     est = np.array(pose, dtype=np.float64)
     pts = np.ascontiguousarray(points, dtype=np.float64)
-    for (prob, meta), n_it in reversed(list(zip(levels, iterations))):
-        for _ in range(n_it):
-            H, g, _ = gn_normal_equations(prob, meta, pts, est)
-            if H[0, 0] == 0.0 or H[1, 1] == 0.0:
-                break
-            try:
-                step = np.linalg.solve(H, g)
-            except np.linalg.LinAlgError:
-                break
-            step[2] = min(max(step[2], -max_angle_step), max_angle_step)
-            est = est + step
-            est[2] = wrap_angle(est[2])
+    for (prob, meta), n_it in list(zip(levels, iterations))[:0:-1]:
+        est, _ = _gauss_newton(prob, meta, pts, est, n_it, max_angle_step)
+    prob, meta = levels[0]
+    est, cost = _gauss_newton(prob, meta, pts, est, iterations[0], max_angle_step)
+    if check_prior and len(levels) > 1:
+        alt, alt_cost = _gauss_newton(prob, meta, pts, np.array(pose, dtype=np.float64), iterations[0],
+                                      max_angle_step)
+        if alt_cost < cost:
+            est = alt
     return est
 
 
@@ -132,7 +152,7 @@ class GaussNewtonSlam:
             self.pose = predicted  # the first scan builds the map at the start pose
         elif len(pts.points):
             self.pose = match_scan([lv.prob_meta() for lv in self.levels], pts.points, predicted,
-                                   self.iterations, self.cfg.max_angle_step)
+                                   self.iterations, self.cfg.max_angle_step, self.cfg.check_prior)
         else:
             self.pose = predicted
         if self._should_update_map():
@@ -173,8 +193,20 @@ class GaussNewtonSlam:
                 or abs(d[2]) > self.cfg.map_update_angle_thresh)
 
     def _insert(self, pts) -> None:
-        for lv in self.levels:
-            insert_scan_points(lv.grid, pts, self.pose)
+        far = self.cfg.far_range
+        if far <= 0:
+            for lv in self.levels:
+                insert_scan_points(lv.grid, pts, self.pose)
+        else:
+            d = np.hypot(pts.points[:, 0] - pts.origin[0], pts.points[:, 1] - pts.origin[1])
+            sensor = transform_points(self.pose, pts.origin[None, :])[0]
+            near = transform_points(self.pose, np.vstack([pts.points[d <= far], pts.misses]))
+            near_hit = np.r_[np.ones(int((d <= far).sum()), bool), np.zeros(len(pts.misses), bool)]
+            far_pts = transform_points(self.pose, pts.points[d > far])
+            l_far = logodds(self.cfg.far_factor_occupied)
+            for lv in self.levels:
+                lv.grid.insert_scan(sensor, far_pts, None, l_occ=l_far)
+                lv.grid.insert_scan(sensor, near, near_hit)
         self._last_update_pose = self.pose.copy()
         self._map_updates += 1
 

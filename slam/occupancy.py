@@ -121,13 +121,14 @@ class LogOddsGrid:
         return True
 
     # --- updates ----------------------------------------------------------------------
-    def insert_scan(self, sensor_pose, points_world_xy, hit_mask=None) -> int:
+    def insert_scan(self, sensor_pose, points_world_xy, hit_mask=None, l_occ: float | None = None,
+                    l_free: float | None = None) -> int:
         """Insert one scan: rays from the sensor to each point.
 
         sensor_pose: (2,) or (3,) world pose of the lidar (only x, y are used);
         points_world_xy: (N, 2) m ray end points; hit_mask: (N,) bool, True where the ray hit
         something (occupied end cell), False for no-return rays (free to the end). Default: all hits.
-        Returns the number of cells updated.
+        l_occ, l_free: override the grid's update values for this call. Returns the number of cells updated.
         """
         o = np.ascontiguousarray(np.asarray(sensor_pose, dtype=np.float64)[:2])
         pts = np.ascontiguousarray(np.asarray(points_world_xy, dtype=np.float64).reshape(-1, 2))
@@ -140,7 +141,9 @@ class LogOddsGrid:
         allp = np.vstack([pts, o[None, :]])
         self.ensure(allp.min(axis=0), allp.max(axis=0))
         n = insert_rays_inplace(self.logodds, self.meta, o, pts, hits,
-                                self.l_free, self.l_occ, self.l_min, self.l_max, self.snap_cells)
+                                self.l_free if l_free is None else float(l_free),
+                                self.l_occ if l_occ is None else float(l_occ),
+                                self.l_min, self.l_max, self.snap_cells)
         self.version += 1
         return int(n)
 

@@ -34,6 +34,28 @@ def test_kernel_matches_reference(seed):
     assert n >= int(np.sum(np.isnan(lo) & ~np.isnan(out)))
 
 
+@pytest.mark.kernel
+@pytest.mark.parametrize("seed", range(6))
+@pytest.mark.parametrize("snap", [1, 3])
+def test_kernel_matches_reference_with_snapping(seed, snap):
+    lo, meta, origin, ends, hit = _random_case(100 + seed)
+    ref = insert_rays_ref(lo, meta, origin, ends, hit, L_FREE, L_OCC, -4.0, 4.0, snap)
+    out = lo.copy()
+    insert_rays_inplace(out, meta, origin, ends, hit, L_FREE, L_OCC, -4.0, 4.0, snap)
+    np.testing.assert_array_equal(np.isnan(out), np.isnan(ref))
+    np.testing.assert_allclose(np.nan_to_num(out), np.nan_to_num(ref), atol=1e-12)
+
+
+def test_snapping_moves_a_hit_behind_a_surface_onto_it():
+    lo = np.full((3, 10), np.nan)
+    lo[0, 6] = 3.0  # a mapped surface just before the end cell
+    meta = np.array([0.0, 0.0, 1.0, 3, 10])
+    insert_rays_inplace(lo, meta, np.array([0.5, 0.5]), np.array([[7.5, 0.5]]), np.array([True]),
+                        -0.5, 2.0, -5.0, 5.0, 2)
+    assert lo[0, 6] == 5.0 and np.isnan(lo[0, 7])
+    np.testing.assert_allclose(lo[0, :6], -0.5)
+
+
 def test_reference_leaves_input_unchanged():
     lo, meta, origin, ends, hit = _random_case(0)
     before = lo.copy()

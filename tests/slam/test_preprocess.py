@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 
 from slam.base import Scan
-from slam.preprocess import PreprocessConfig, motion_during, preprocess, twist_from_poses
+from slam.preprocess import PreprocessConfig, motion_during, preprocess, smooth_ranges, twist_from_poses
 from slam.pose import compose, transform_points
 
 ANGLES = np.linspace(0, 2 * np.pi, 8, endpoint=False)
@@ -72,3 +72,25 @@ def test_deskew_recovers_a_static_wall_seen_while_turning():
     np.testing.assert_allclose(out.points, world, atol=1e-9)
     raw = preprocess(scan, PreprocessConfig(deskew=False), twist=tw)
     assert np.abs(raw.points - world).max() > 0.1
+
+
+def test_smoothing_keeps_a_flat_wall_flat_and_reduces_noise(rng):
+    beams = 360
+    angles = np.linspace(0, 2 * np.pi, beams, endpoint=False)
+    # a wall x = 1 seen by beams within 60 degrees of the x axis; the rest return nothing
+    with np.errstate(divide="ignore"):
+        r = np.where(np.cos(angles) > 0.5, 1.0 / np.cos(angles), np.inf)
+    noisy = r * (1 + 0.025 * rng.standard_normal(beams))
+    scan = _scan(noisy, angles=angles)
+    raw = preprocess(scan, PreprocessConfig()).points
+    smooth = preprocess(scan, PreprocessConfig(smooth_beams=4)).points
+    assert len(raw) == len(smooth) == int(np.sum(np.cos(angles) > 0.5))
+    assert np.std(smooth[:, 0] - 1.0) < 0.5 * np.std(raw[:, 0] - 1.0)
+    exact = preprocess(_scan(np.where(np.isfinite(r), r, np.inf), angles=angles), PreprocessConfig(smooth_beams=4)).points
+    np.testing.assert_allclose(exact[:, 0], 1.0, atol=1e-9)  # averaging points of a line stays on it
+
+
+def test_smoothing_keeps_depth_jumps():
+    r = np.r_[np.full(10, 1.0), np.full(10, 2.0)]
+    along, across = smooth_ranges(r, np.ones(20, bool), 3, 0.1, 0.01, circular=False)
+    assert np.all(np.abs(along[:8] - 1.0) < 0.01) and np.all(np.abs(along[12:] - 2.0) < 0.01)
