@@ -165,6 +165,9 @@ def run_benchmark(spec: RunSpec, out_dir: str | Path, jobs: int | None = None,
     load_plugins()
     for algo in spec.algos:
         load_config_checked(algo, spec.configs.get(algo))  # unknown algo / bad config: fail now
+    import sim
+    if hasattr(sim, "load_profile"):
+        sim.load_profile(spec.noise)  # a bad --noise fails here, before any work
     world_map, world_files = load_worlds(list(spec.worlds))
     _write_run_json(out_dir, spec, world_map, world_files, argv, previous)
     store = ResultStore(out_dir)

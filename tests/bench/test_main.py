@@ -15,11 +15,15 @@ def _err_line(capsys):
     (["--algo", "nope"], "unknown algorithm 'nope'"),
     (["--repeats", "0"], "--repeats must be >= 1"),
     (["--config", "fake_map"], "ALGO=YAML"),
+    (["--noise", "nope"], "unknown noise profile 'nope'"),
+    (["--world", "BAD"], "bad.yaml: walls: missing required field"),
 ])
 def test_bad_input_is_one_line_exit_2(tiny, tmp_path, capsys, args, msg):
     base = {"--world": tiny, "--algo": "fake_map", "--repeats": "1"}
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("name: bad\nrobot: {start: [0, 0, 0]}\n")
     for k, v in zip(args[::2], args[1::2]):
-        base[k] = v
+        base[k] = str(bad) if v == "BAD" else v
     argv = ["run", *sum(([k, v] for k, v in base.items()), []), "--out", str(tmp_path / "o")]
     assert main(argv) == 2
     assert msg in _err_line(capsys)
