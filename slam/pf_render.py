@@ -8,7 +8,9 @@ over several cells along the beams, and n / visits marks all of them (the cells 
 face see only returns). The face is where the returns are densest across the wall, so:
   1. occupied candidates as above, with at least `min_hits` returns;
   2. the candidates' returns are moved by mean shift (two steps, 3 x 3 cells) to the
-     densest line of their band; the cells they end in are the faces;
+     densest line of their band, then a third of a cell into the wall (away from the free
+     space: a face on a cell boundary belongs to the wall's cell); the cells they end in
+     are the faces;
   3. only cells within reach_cells of free space connected to the robot's path survive
      (the walls' faces; returns overshooting a wall land in pockets the robot never reaches).
 Suppressed cells become unknown. Everything is computed from the filter's own map and path.
@@ -29,7 +31,7 @@ def render_gmapping(hits: np.ndarray, visits: np.ndarray, occ_thresh: float) -> 
     return prob
 
 
-def _snap_to_modes(hits, sum_x, sum_y, cand, iterations=2):
+def _snap_to_modes(hits, sum_x, sum_y, cand, inward=None, into=0.0, iterations=2):
     """(R, C) votes: the returns of the candidates, counted in the cells they converge to
     by mean shift.
 
@@ -53,6 +55,16 @@ def _snap_to_modes(hits, sum_x, sum_y, cand, iterations=2):
         ok = w > 0
         px = np.where(ok, sx[rr, cc] / np.where(ok, w, 1), px)
         py = np.where(ok, sy[rr, cc] / np.where(ok, w, 1), py)
+    if inward is not None and into > 0:
+        # the face cell holds the wall's material: step off the surface into the wall, so a
+        # face on a cell boundary lands in the wall's cell, not the free one before it
+        cc = np.clip(np.floor(px).astype(int), 0, cols - 1)
+        rr = np.clip(np.floor(py).astype(int), 0, rows - 1)
+        gx, gy = inward[1][rr, cc], inward[0][rr, cc]
+        norm = np.hypot(gx, gy)
+        ok = norm > 0
+        px = px + np.where(ok, into * gx / np.where(ok, norm, 1), 0.0)
+        py = py + np.where(ok, into * gy / np.where(ok, norm, 1), 0.0)
     votes = np.zeros(hits.shape)
     np.add.at(votes, (np.clip(np.floor(py).astype(int), 0, rows - 1),
                       np.clip(np.floor(px).astype(int), 0, cols - 1)), hits[r, c])
@@ -73,17 +85,19 @@ def reachable_free(prob: np.ndarray, seeds_rc: np.ndarray) -> np.ndarray:
 
 def render_surface(hits: np.ndarray, visits: np.ndarray, sum_x: np.ndarray, sum_y: np.ndarray,
                    occ_thresh: float, min_hits: float, seeds_rc: np.ndarray,
-                   reach_cells: int = 2) -> np.ndarray:
+                   reach_cells: int = 2, into: float = 0.3) -> np.ndarray:
     """The `surface` rendering (module docstring). hits, visits: (R, C) counts; sum_x, sum_y:
     (R, C) sums of the returns' positions in cell units (column, row); seeds_rc: (K, 2) rows,
     cols of the robot's path; reach_cells: how far (cells) behind reachable free space a
-    face may lie. Returns (R, C) 1.0 / 0.0 / NaN."""
+    face may lie; into: cells the converged returns step into the wall (away from the
+    reachable free space) before the cell is marked. Returns (R, C) 1.0 / 0.0 / NaN."""
     prob = render_gmapping(hits, visits, occ_thresh)
     reach = reachable_free(prob, seeds_rc)
     near = ndimage.binary_dilation(reach, iterations=reach_cells)
     occ = prob == 1.0
     cand = occ & (hits >= min_hits) & near
-    votes = _snap_to_modes(hits, sum_x, sum_y, cand)
+    inward = np.gradient(ndimage.distance_transform_edt(~reach)) if reach.any() else None
+    votes = _snap_to_modes(hits, sum_x, sum_y, cand, inward, into)
     keep = (votes > 0) & near & (visits > 0)
     out = prob.copy()
     out[occ & ~keep] = np.nan
