@@ -18,7 +18,7 @@ import numpy as np
 
 from worlds.grid import Grid
 from slam.base import ImuWindow, OdomDelta, Scan, register
-from slam._kernels.gn_step import gn_normal_equations
+from slam._kernels.gn_step import gn_iterate
 from slam.mapper import Mapper, MapperConfig, insert_scan_points
 from slam.occupancy import LogOddsGrid, logodds
 from slam.pose import relative, transform_points, wrap_angle
@@ -88,18 +88,7 @@ class _Level:
 
 def _gauss_newton(prob, meta, pts, est, n_it, max_angle_step):
     """n_it Gauss-Newton steps on one level; returns (pose, cost at the returned pose)."""
-    for _ in range(n_it):
-        H, g, _ = gn_normal_equations(prob, meta, pts, est)
-        if H[0, 0] == 0.0 or H[1, 1] == 0.0:
-            break
-        try:
-            step = np.linalg.solve(H, g)
-        except np.linalg.LinAlgError:
-            break
-        step[2] = min(max(step[2], -max_angle_step), max_angle_step)
-        est = est + step
-        est[2] = wrap_angle(est[2])
-    return est, gn_normal_equations(prob, meta, pts, est)[2]
+    return gn_iterate(prob, meta, pts, np.asarray(est, dtype=np.float64), int(n_it), float(max_angle_step))
 
 
 def match_scan(levels: list[tuple[np.ndarray, np.ndarray]], points: np.ndarray, pose: np.ndarray,

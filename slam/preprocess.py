@@ -13,6 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from slam._kernels.smooth import smooth_ranges as _smooth
 from slam.base import ImuWindow, Scan
 from slam.pose import relative
 
@@ -82,23 +83,9 @@ def smooth_ranges(ranges: np.ndarray, valid: np.ndarray, half: int, jump: float,
     Averaging the points of a flat surface keeps them on the surface and divides the range
     noise by up to sqrt(2*half + 1); the window is about 2 * half * range * step wide.
     """
-    B = len(ranges)
-    r = np.where(valid, ranges, 0.0)
-    along = np.zeros(B)
-    across = np.zeros(B)
-    count = np.zeros(B)
-    idx = np.arange(B)
-    for k in range(-half, half + 1):
-        j = idx + k
-        inside = np.ones(B, bool) if circular else (j >= 0) & (j < B)
-        j = np.mod(j, B)
-        rk = r[j]
-        ok = valid & valid[j] & inside & (np.abs(rk - r) <= jump * r)
-        along += np.where(ok, rk * np.cos(k * step), 0.0)
-        across += np.where(ok, rk * np.sin(k * step), 0.0)
-        count += ok
-    count = np.maximum(count, 1)
-    return along / count, across / count
+    r = np.ascontiguousarray(np.where(valid, ranges, 0.0), dtype=np.float64)
+    return _smooth(r, np.ascontiguousarray(valid, dtype=np.bool_), int(half), float(jump), float(step),
+                   bool(circular))
 
 
 def _voxel_keep(pts: np.ndarray, size: float) -> np.ndarray:

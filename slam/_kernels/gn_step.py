@@ -13,7 +13,7 @@ from numba import njit
 
 from slam._kernels.interp import interp_point, interp_value_grad_ref
 
-__all__ = ["gn_normal_equations", "gn_normal_equations_ref"]
+__all__ = ["gn_normal_equations", "gn_normal_equations_ref", "gn_iterate", "gn_iterate_ref"]
 
 
 @njit(cache=True)
@@ -62,3 +62,58 @@ def gn_normal_equations_ref(prob, grid_meta, pts_robot, pose):
     J = np.column_stack([grad[:, 0], grad[:, 1], np.einsum("ij,ij->i", grad, pts @ dR.T)])
     r = 1.0 - mg[:, 0]
     return J.T @ J, J.T @ r, float(r @ r)
+
+
+@njit(cache=True)
+def _solve3(H, g):
+    """Solution of the 3x3 system H x = g by Cramer's rule; (zeros, False) when singular."""
+    a, b, c = H[0, 0], H[0, 1], H[0, 2]
+    d, e, f = H[1, 0], H[1, 1], H[1, 2]
+    p, q, r = H[2, 0], H[2, 1], H[2, 2]
+    det = a * (e * r - f * q) - b * (d * r - f * p) + c * (d * q - e * p)
+    x = np.zeros(3)
+    scale = abs(a * e * r) + 1e-300
+    if abs(det) <= 1e-12 * scale:
+        return x, False
+    x[0] = (g[0] * (e * r - f * q) - b * (g[1] * r - f * g[2]) + c * (g[1] * q - e * g[2])) / det
+    x[1] = (a * (g[1] * r - f * g[2]) - g[0] * (d * r - f * p) + c * (d * g[2] - g[1] * p)) / det
+    x[2] = (a * (e * g[2] - g[1] * q) - b * (d * g[2] - g[1] * p) + g[0] * (d * q - e * p)) / det
+    return x, True
+
+
+@njit(cache=True)
+def gn_iterate(prob, grid_meta, pts_robot, pose, iterations, max_angle_step):
+    """`iterations` Hector Gauss-Newton steps from pose (3,); the rotation of a step is clamped
+    to +-max_angle_step (rad). Returns (pose (3,), cost at that pose)."""
+    est = pose.copy()
+    for _ in range(iterations):
+        H, g, _ = gn_normal_equations(prob, grid_meta, pts_robot, est)
+        if H[0, 0] == 0.0 or H[1, 1] == 0.0:
+            break
+        step, ok = _solve3(H, g)
+        if not ok:
+            break
+        if step[2] > max_angle_step:
+            step[2] = max_angle_step
+        elif step[2] < -max_angle_step:
+            step[2] = -max_angle_step
+        est += step
+        est[2] = (est[2] + np.pi) % (2.0 * np.pi) - np.pi
+    return est, gn_normal_equations(prob, grid_meta, pts_robot, est)[2]
+
+
+def gn_iterate_ref(prob, grid_meta, pts_robot, pose, iterations, max_angle_step):
+    """Reference of gn_iterate with the numpy normal equations and np.linalg.solve."""
+    est = np.array(pose, dtype=np.float64)
+    for _ in range(iterations):
+        H, g, _ = gn_normal_equations_ref(prob, grid_meta, pts_robot, est)
+        if H[0, 0] == 0.0 or H[1, 1] == 0.0:
+            break
+        try:
+            step = np.linalg.solve(H, g)
+        except np.linalg.LinAlgError:
+            break
+        step[2] = np.clip(step[2], -max_angle_step, max_angle_step)
+        est = est + step
+        est[2] = (est[2] + np.pi) % (2.0 * np.pi) - np.pi
+    return est, gn_normal_equations_ref(prob, grid_meta, pts_robot, est)[2]

@@ -35,3 +35,20 @@ def test_gradient_of_cost_matches_finite_differences(rng):
         cp = gn_normal_equations(prob, meta, pts, pose + d)[2]
         cm = gn_normal_equations(prob, meta, pts, pose - d)[2]
         assert -(cp - cm) / (2 * h) / 2 == pytest.approx(g[k], rel=1e-4, abs=1e-6)
+
+
+@pytest.mark.kernel
+@pytest.mark.parametrize("seed", range(4))
+def test_iterate_matches_reference(seed):
+    from slam._kernels.gn_step import gn_iterate, gn_iterate_ref
+    rng = np.random.default_rng(seed)
+    # a smooth bump map so the steps stay well conditioned
+    yy, xx = np.mgrid[0:40, 0:40]
+    prob = np.exp(-((xx - 20.0) ** 2 + (yy - 18.0) ** 2) / 60.0)
+    meta = np.array([0.0, 0.0, 0.1, 40, 40])
+    pts = rng.uniform(-0.5, 0.5, (100, 2))
+    pose = np.array([2.0, 1.8, 0.1]) + rng.normal(0, 0.05, 3)
+    a, ca = gn_iterate(prob, meta, pts, pose, 4, 0.2)
+    b, cb = gn_iterate_ref(prob, meta, pts, pose, 4, 0.2)
+    np.testing.assert_allclose(a, b, atol=1e-9)
+    assert ca == pytest.approx(cb)
