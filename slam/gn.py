@@ -24,7 +24,14 @@ from slam.occupancy import LogOddsGrid, logodds
 from slam.pose import relative, transform_points, wrap_angle
 from slam.preprocess import PreprocessConfig, preprocess, twist_from_poses, yaw_rate_from_imu
 
-__all__ = ["GnConfig", "GaussNewtonSlam", "match_scan"]
+__all__ = ["GnConfig", "MatchPreprocessConfig", "GaussNewtonSlam", "match_scan"]
+
+
+@dataclass(frozen=True)
+class MatchPreprocessConfig(PreprocessConfig):
+    """PreprocessConfig with gn's matching defaults (a YAML block keeps those it does not name)."""
+
+    smooth_beams: int = 4      # mean over 9 neighbouring beams: range noise / 3 on flat walls
 
 
 @dataclass(frozen=True)
@@ -47,7 +54,7 @@ class GnConfig:
     deskew_velocity_window: float = 1.0   # s; de-skew translation uses the mean velocity of the estimates over this window (0 = rotation only)
     # scan points for matching ([laser_min_dist, laser_max_dist] are its range limits); smoothing
     # over 9 beams divides the realistic range noise by up to 3 (not in hector)
-    preprocess: PreprocessConfig = field(default_factory=lambda: PreprocessConfig(smooth_beams=4))
+    preprocess: MatchPreprocessConfig = field(default_factory=MatchPreprocessConfig)
     far_range: float = 2.0                # m; hits beyond it update the matching levels with far_factor_occupied (0 = off)
     far_factor_occupied: float = 0.6      # occupancy probability of far hits: far ranges are noisier (not in hector)
     output_map: MapperConfig = field(default_factory=MapperConfig)  # the map the run outputs: every scan at its matched pose

@@ -19,16 +19,32 @@ from slam.occupancy import GridConfig, LogOddsGrid
 from slam.pose import transform_points
 from slam.preprocess import PreprocessConfig, ScanPoints, preprocess
 
-__all__ = ["MapperConfig", "Mapper", "insert_scan_points"]
+__all__ = ["MapperConfig", "MapGridConfig", "MapPreprocessConfig", "Mapper", "insert_scan_points"]
+
+
+@dataclass(frozen=True)
+class MapGridConfig(GridConfig):
+    """GridConfig with the output map's defaults (a YAML block keeps those it does not name)."""
+
+    p_free: float = 0.45       # occupancy probability a ray's free cells are updated with
+    p_occupied: float = 0.6    # weak single hits: range noise must not make walls thick
+
+
+@dataclass(frozen=True)
+class MapPreprocessConfig(PreprocessConfig):
+    """PreprocessConfig with the output map's defaults."""
+
+    range_max: float = 2.0     # m; hits only below 2 m, where the range noise is below 5 cm
+    free_range: float = 2.0    # m; farther beams still mark free space up to 2 m
+    smooth_beams: int = 4      # mean over 9 neighbouring beams: range noise / 3 on flat walls
 
 
 @dataclass(frozen=True)
 class MapperConfig:
     """How the output map is built: grid update values and the scan preprocessing for it."""
 
-    grid: GridConfig = field(default_factory=lambda: GridConfig(p_free=0.45, p_occupied=0.6))
-    preprocess: PreprocessConfig = field(default_factory=lambda: PreprocessConfig(
-        range_max=2.0, free_range=2.0, smooth_beams=4))
+    grid: MapGridConfig = field(default_factory=MapGridConfig)
+    preprocess: MapPreprocessConfig = field(default_factory=MapPreprocessConfig)
 
 
 class Mapper:
