@@ -51,6 +51,7 @@ class GnConfig:
     logodds_max: float = 50.0             # log-odds clamp above (hector: 50, GridMapLogOdds)
     check_prior: bool = True              # also match the finest level from the prior, keep the better (not in hector)
     use_imu: bool = True                  # predict the rotation between scans from the gyro (hector: via the imu/tf prior)
+    constant_velocity: bool = False       # predict the translation with that mean velocity (hector: none)
     deskew_velocity_window: float = 1.0   # s; de-skew translation uses the mean velocity of the estimates over this window (0 = rotation only)
     # scan points for matching ([laser_min_dist, laser_max_dist] are its range limits); smoothing
     # over 9 beams divides the realistic range noise by up to 3 (not in hector)
@@ -175,6 +176,10 @@ class GaussNewtonSlam:
                 j -= 1
             if j < k:
                 twist = twist_from_poses(self._poses[j], self._poses[k], self._times[k] - self._times[j])
+        if self.cfg.constant_velocity:
+            c, s_ = math.cos(pred[2]), math.sin(pred[2])
+            pred[0] += (c * twist[0] - s_ * twist[1]) * dt
+            pred[1] += (s_ * twist[0] + c * twist[1]) * dt
         w = yaw_rate_from_imu(imu) if self.cfg.use_imu else None
         if w is not None:
             pred[2] = wrap_angle(pred[2] + w * dt)
