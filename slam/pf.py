@@ -110,6 +110,7 @@ class PfConfig:
     # that, thinned to the walls' faces (slam/pf_render.py): range noise spreads returns over cells
     render: Literal["gmapping", "surface"] = "surface"
     min_hits: float = 2.0             # surface: a face cell needs at least this many returns
+    face_shift: float = 0.2           # surface: cells the faces' returns step into the wall
     motion: MotionConfig = field(default_factory=MotionConfig)
     matcher: MatcherConfig = field(default_factory=MatcherConfig)
 
@@ -366,7 +367,8 @@ class ParticleFilterSlam:
             sum_x = counts[..., 2] / self.cfg.delta + hits * cc
             sum_y = counts[..., 3] / self.cfg.delta + hits * rr
             prob = render_surface(hits, visits, sum_x, sum_y, self.cfg.occ_thresh,
-                                  self.cfg.min_hits, rc - np.array([r_off, c_off]))
+                                  self.cfg.min_hits, rc - np.array([r_off, c_off]),
+                                  into=self.cfg.face_shift)
         else:
             prob = render_gmapping(hits, visits, self.cfg.occ_thresh)
         seen = ~np.isnan(prob)

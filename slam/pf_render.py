@@ -8,9 +8,9 @@ over several cells along the beams, and n / visits marks all of them (the cells 
 face see only returns). The face is where the returns are densest across the wall, so:
   1. occupied candidates as above, with at least `min_hits` returns;
   2. the candidates' returns are moved by mean shift (two steps, 3 x 3 cells) to the
-     densest line of their band, then a third of a cell into the wall (away from the free
-     space: a face on a cell boundary belongs to the wall's cell); the cells they end in
-     are the faces;
+     densest line of their band, then `into` cells (default 0.2) further into the wall (away
+     from the free space: a face on a cell boundary belongs to the wall's cell); the cells
+     they end in are the faces;
   3. only cells within reach_cells of free space connected to the robot's path survive
      (the walls' faces; returns overshooting a wall land in pockets the robot never reaches).
 Suppressed cells become unknown. Everything is computed from the filter's own map and path.
@@ -85,7 +85,7 @@ def reachable_free(prob: np.ndarray, seeds_rc: np.ndarray) -> np.ndarray:
 
 def render_surface(hits: np.ndarray, visits: np.ndarray, sum_x: np.ndarray, sum_y: np.ndarray,
                    occ_thresh: float, min_hits: float, seeds_rc: np.ndarray,
-                   reach_cells: int = 2, into: float = 0.3) -> np.ndarray:
+                   reach_cells: int = 2, into: float = 0.2) -> np.ndarray:
     """The `surface` rendering (module docstring). hits, visits: (R, C) counts; sum_x, sum_y:
     (R, C) sums of the returns' positions in cell units (column, row); seeds_rc: (K, 2) rows,
     cols of the robot's path; reach_cells: how far (cells) behind reachable free space a
