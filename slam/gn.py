@@ -50,6 +50,7 @@ class GnConfig:
     logodds_min: float = -50.0            # log-odds clamp below (hector: none)
     logodds_max: float = 50.0             # log-odds clamp above (hector: 50, GridMapLogOdds)
     check_prior: bool = True              # also match the finest level from the prior, keep the better (not in hector)
+    prior_cost_ratio: float = 1.0         # the coarse-to-fine result must cost less than this x the prior's
     use_imu: bool = True                  # predict the rotation between scans from the gyro (hector: via the imu/tf prior)
     constant_velocity: bool = False       # predict the translation with that mean velocity (hector: none)
     deskew_velocity_window: float = 1.0   # s; de-skew translation uses the mean velocity of the estimates over this window (0 = rotation only)
@@ -100,14 +101,16 @@ def _gauss_newton(prob, meta, pts, est, n_it, max_angle_step):
 
 
 def match_scan(levels: list[tuple[np.ndarray, np.ndarray]], points: np.ndarray, pose: np.ndarray,
-               iterations: list[int], max_angle_step: float = 0.2, check_prior: bool = True) -> np.ndarray:
+               iterations: list[int], max_angle_step: float = 0.2, check_prior: bool = True,
+               prior_cost_ratio: float = 1.0) -> np.ndarray:
     """Hector's coarse-to-fine Gauss-Newton scan matching.
 
     levels: [(prob (rows, cols), grid_meta (5,))] finest first; points: (N, 2) m in the robot
     frame; pose: (3,) initial world pose; iterations: steps per level, finest first.
     check_prior: also run the finest level from `pose` itself and keep whichever end has the
     lower cost (a coarse level can be biased by up to half its cell, out of the finest
-    level's reach). Returns the refined (3,) pose.
+    level's reach); the coarse path wins only with a cost below prior_cost_ratio times the
+    prior path's. Returns the refined (3,) pose.
     """
     est = np.array(pose, dtype=np.float64)
     pts = np.ascontiguousarray(points, dtype=np.float64)
@@ -118,7 +121,7 @@ def match_scan(levels: list[tuple[np.ndarray, np.ndarray]], points: np.ndarray, 
     if check_prior and len(levels) > 1:
         alt, alt_cost = _gauss_newton(prob, meta, pts, np.array(pose, dtype=np.float64), iterations[0],
                                       max_angle_step)
-        if alt_cost < cost:
+        if cost >= prior_cost_ratio * alt_cost:
             est = alt
     return est
 
@@ -149,7 +152,8 @@ class GaussNewtonSlam:
             self.pose = predicted  # the first scan builds the map at the start pose
         elif len(pts.points):
             self.pose = match_scan([lv.prob_meta() for lv in self.levels], pts.points, predicted,
-                                   self.iterations, self.cfg.max_angle_step, self.cfg.check_prior)
+                                   self.iterations, self.cfg.max_angle_step, self.cfg.check_prior,
+                                   self.cfg.prior_cost_ratio)
         else:
             self.pose = predicted
         if self._should_update_map():
