@@ -165,7 +165,7 @@ def optimize_poses(poses: np.ndarray, c: Constraints, fixed: np.ndarray | None =
         return rho
 
     res = least_squares(fun, x0, jac=jac, method="trf", loss=loss if robust_rows.any() else "linear",
-                        x_scale="jac", max_nfev=max_iterations, ftol=tolerance, xtol=tolerance,
+                        x_scale=1.0, max_nfev=max_iterations, ftol=tolerance, xtol=tolerance,
                         gtol=tolerance, tr_solver="lsmr")
     out = current(res.x)
     out[:, 2] = wrap_angle(out[:, 2])

@@ -105,7 +105,7 @@ class PoseGraph:
         fixed = np.zeros(len(poses), bool)
         fixed[0] = True
         op = self.cfg.optimization_problem
-        for _ in range(4):
+        for _ in range(2):
             out = optimize_poses(poses, self.constraints(), fixed, huber_scale=op.huber_scale,
                                  max_iterations=op.max_num_iterations)
             if op.max_loop_residual <= 0 or not self.loops:
