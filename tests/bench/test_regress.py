@@ -43,3 +43,12 @@ def test_regress_update_then_check_then_detect(tiny, tmp_path, capsys):
     assert regress(base, jobs=1, progress=False) == 1
     out = capsys.readouterr().out
     assert "regression: 1 metric(s) got worse" in out and "tiny/fake_map: precision dropped" in out
+
+
+def test_committed_baseline_is_the_default_matrix():
+    from bench.regress import BASELINE_PATH, DEFAULT_REPEATS, DEFAULT_WORLDS, _load_baseline
+    data = _load_baseline(BASELINE_PATH)
+    m = data["matrix"]
+    assert m["worlds"] == list(DEFAULT_WORLDS) and m["repeats"] == DEFAULT_REPEATS
+    assert set(m["algos"]) >= {"pf", "gn", "graph", "oracle"}
+    assert set(data["means"]) == {f"{w}/{a}" for w in m["worlds"] for a in m["algos"]}
