@@ -148,14 +148,21 @@ def _climb_one(occ, mean, corner, grid_meta, init, hits, frees, params):
     best_score = -1.0
     refinement = 0
     trial = np.empty(3)
+    came_by = -1
     while True:
         if best_score >= cur_score:
             refinement += 1
             ldelta *= 0.5
             adelta *= 0.5
+            came_by = -1
         best_score = cur_score
         best_local = cur.copy()
+        accepted = -1
         for move in range(6):
+            # the reverse of the move that led here (same step) returns to the previous pose,
+            # whose score is lower than the current one: it can never be accepted
+            if came_by >= 0 and move == (came_by ^ 1):
+                continue
             trial[:] = cur
             if move == 0:
                 trial[0] += ldelta
@@ -173,7 +180,9 @@ def _climb_one(occ, mean, corner, grid_meta, init, hits, frees, params):
             if sc > cur_score:
                 cur_score = sc
                 best_local[:] = trial
+                accepted = move
         cur[:] = best_local
+        came_by = accepted
         if not (cur_score > best_score or refinement < iterations):
             break
     return cur, best_score
@@ -306,20 +315,26 @@ def hill_climb_ref(counts, grid_meta, init, hits, frees, params):
     score = lambda q: score_and_likelihood_ref(counts, grid_meta, q, hits, frees, params)[0]
     cur = np.array(init, dtype=float)
     cur_score = score(cur)
-    best_score, refinement = -1.0, 0
+    best_score, refinement, back = -1.0, 0, None
     moves = lambda l, a: [(l, 0, 0), (-l, 0, 0), (0, -l, 0), (0, l, 0), (0, 0, a), (0, 0, -a)]
+    reverse = {0: 1, 1: 0, 2: 3, 3: 2, 4: 5, 5: 4}
     while True:
         if best_score >= cur_score:
             refinement += 1
             ldelta, adelta = ldelta / 2, adelta / 2
+            back = None
         best_score = cur_score
-        cands = [(score(cur + np.array(mv)), i) for i, mv in enumerate(moves(ldelta, adelta))]
+        # the move back to the previous pose (lower score) is not tried
+        cands = [(score(cur + np.array(mv)), i) for i, mv in enumerate(moves(ldelta, adelta))
+                 if i != back]
         better = [(s, i) for s, i in cands if s > cur_score]
+        back = None
         if better:
             # the strictly best move, first in move order on ties (as the sequential scan)
             top = max(s for s, _ in better)
             i = min(i for s, i in better if s == top)
             cur, cur_score = cur + np.array(moves(ldelta, adelta)[i]), top
+            back = reverse[i]
         if not (cur_score > best_score or refinement < iterations):
             return cur, best_score
 
