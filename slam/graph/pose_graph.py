@@ -38,6 +38,7 @@ class PoseGraph:
         self.n_optimizations = 0
         self.rejected = 0
         self._since_opt = 0
+        self._loops_at_opt = 0
 
     def add_node(self, local_pose: np.ndarray, hits: np.ndarray, inserted_into: tuple,
                  created: tuple, finished: tuple) -> int:
@@ -62,7 +63,12 @@ class PoseGraph:
                         self._try(s, n)
         self._since_opt += 1
         if self.cfg.optimize_every_n_nodes > 0 and self._since_opt >= self.cfg.optimize_every_n_nodes:
-            self.optimize()
+            if len(self.loops) != self._loops_at_opt:
+                self.optimize()
+            else:
+                # No new loop closure: the local constraints alone are already satisfied by the
+                # corrected local poses, so the optimum would not move (ours: saves the solve).
+                self._since_opt = 0
         return node
 
     def _try(self, s: int, n: int) -> None:
@@ -124,3 +130,4 @@ class PoseGraph:
         last = ns - 1
         self.correction = compose(self.submap_global[last], inverse(self.submaps[last].local_pose))
         self.n_optimizations += 1
+        self._loops_at_opt = len(self.loops)
