@@ -109,12 +109,11 @@ def score_and_likelihood(occ, mean, corner, grid_meta, pose, hits, frees, params
     for k in range(hits.shape[0]):
         hx = pose[0] + c * hits[k, 0] - s * hits[k, 1]
         hy = pose[1] + s * hits[k, 0] + c * hits[k, 1]
-        fx = pose[0] + c * frees[k, 0] - s * frees[k, 1]
-        fy = pose[1] + s * frees[k, 0] + c * frees[k, 1]
         hc = int(math.floor((hx - ox) / res))
         hr = int(math.floor((hy - oy) / res))
-        dc = int(math.floor((fx - ox) / res)) - hc
-        dr = int(math.floor((fy - oy) / res)) - hr
+        have_free = False
+        dc = 0
+        dr = 0
         best = np.inf
         for yy in range(-kernel, kernel + 1):
             r = hr + yy
@@ -124,6 +123,13 @@ def score_and_likelihood(occ, mean, corner, grid_meta, pose, hits, frees, params
                 cc = hc + xx
                 if cc < 0 or cc >= size_c or occ[r, cc] == 0:
                     continue
+                if not have_free:
+                    # the free point's cell offset, needed only once a candidate turns up
+                    fx = pose[0] + c * frees[k, 0] - s * frees[k, 1]
+                    fy = pose[1] + s * frees[k, 0] + c * frees[k, 1]
+                    dc = int(math.floor((fx - ox) / res)) - hc
+                    dr = int(math.floor((fy - oy) / res)) - hr
+                    have_free = True
                 fr = r + dr
                 fc = cc + dc
                 if 0 <= fr < size_r and 0 <= fc < size_c and occ[fr, fc] != 0:
