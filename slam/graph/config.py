@@ -13,6 +13,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
+from slam.mapper import MapperConfig
+
 __all__ = ["GraphConfig", "LocalConfig", "GlobalConfig", "MotionFilterConfig", "SubmapsConfig",
            "RealTimeCorrelativeConfig", "CeresScanMatcherConfig", "FastCorrelativeConfig",
            "ConstraintBuilderConfig", "OptimizationConfig", "AdaptiveVoxelConfig"]
@@ -178,8 +180,11 @@ class GraphConfig:
     trajectory_builder: LocalConfig = field(default_factory=LocalConfig)
     pose_graph: GlobalConfig = field(default_factory=GlobalConfig)
     map_resolution: float = 0.05             # ours: resolution of the final composed map, m
-    final_map: str = "sharpened"             # ours: "probability" (submap odds) or "sharpened"
-                                             # (see slam/graph/final_map.py)
+    final_map: str = "sharpened"             # ours: "probability" (submap odds), "sharpened"
+                                             # (see slam/graph/final_map.py) or "mapper" (every
+                                             # scan at its optimized pose into `output_map`, the
+                                             # shared output map of oracle and gn)
+    output_map: MapperConfig = field(default_factory=MapperConfig)  # ours: used by final_map "mapper"
     map_near_range: float = 0.5              # ours, sharpened: rays up to this range weigh 1
     map_suppress_ratio: float = 0.4          # ours, sharpened: 3x3 non-maximum suppression ratio
     map_max_range: float = 0.0               # ours: hits farther than this (m) from the lidar are
@@ -187,6 +192,7 @@ class GraphConfig:
                                              # error grows with range (5 % beyond 0.5 m)
 
     def __post_init__(self):
-        if self.final_map not in ("probability", "sharpened"):
-            raise ValueError(f"final_map must be 'probability' or 'sharpened', got {self.final_map!r}")
+        if self.final_map not in ("probability", "sharpened", "mapper"):
+            raise ValueError(f"final_map must be 'probability', 'sharpened' or 'mapper', "
+                             f"got {self.final_map!r}")
         _positive(self, "map_resolution", "map_near_range")

@@ -21,6 +21,8 @@ from slam.graph.config import GraphConfig
 from slam.graph.final_map import sharpened_map
 from slam.graph.local import LocalSlam
 from slam.graph.pose_graph import PoseGraph
+from slam.mapper import Mapper
+from slam.preprocess import twist_from_poses
 
 __all__ = ["GraphSlam"]
 
@@ -40,6 +42,7 @@ class GraphSlam:
         self.scan_local: list[np.ndarray] = []
         self.scan_node: list[int] = []
         self.node_scans: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
+        self.scans: list[Scan] = []           # kept for final_map "mapper"
 
     def update(self, scan: Scan, odom: OdomDelta | None, imu: ImuWindow | None) -> np.ndarray:
         r = self.local.add_scan(scan, odom, imu)
@@ -47,6 +50,8 @@ class GraphSlam:
             self.graph.add_node(r.pose, r.hits, r.inserted_into, r.created, r.finished)
             self.node_scans.append((r.origin, r.hits, r.misses))
         self.times.append(scan.t)
+        if self.cfg.final_map == "mapper":
+            self.scans.append(scan)
         self.scan_local.append(r.pose)
         self.scan_node.append(len(self.graph.node_local) - 1)
         return compose(self.graph.correction, r.pose)
@@ -63,6 +68,8 @@ class GraphSlam:
         return np.array(self.times), poses
 
     def map(self) -> Grid:
+        if self.cfg.final_map == "mapper":
+            return self._mapper_map()
         if self.cfg.final_map == "sharpened":
             return sharpened_map(np.array(self.graph.node_global), self.node_scans, self.cfg.map_resolution,
                                  self.cfg.map_near_range, self.cfg.map_suppress_ratio, self.cfg.map_max_range)
@@ -78,6 +85,16 @@ class GraphSlam:
             mask[:len(hits)] = True
             grid.insert_scan(transform_points(pose, origin[None, :])[0], transform_points(pose, pts), mask)
         return grid.to_grid()
+
+    def _mapper_map(self) -> Grid:
+        """Every scan re-inserted at its optimized pose, de-skewed with the motion to the next."""
+        times, poses = self.trajectory()
+        mapper = Mapper(self.cfg.output_map, center=tuple(poses[0][:2]))
+        for i, scan in enumerate(self.scans):
+            j, k = (i, i + 1) if i + 1 < len(poses) else (i - 1, i)
+            twist = twist_from_poses(poses[j], poses[k], times[k] - times[j]) if j >= 0 else np.zeros(3)
+            mapper.insert(scan, poses[i], twist)
+        return mapper.to_grid()
 
     def extra_stats(self) -> dict:
         return {"nodes": len(self.graph.node_local), "submaps": len(self.graph.submap_global),
