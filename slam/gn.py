@@ -7,7 +7,8 @@ Each scan is matched against the map built so far by Gauss-Newton on a smoothly
 end points, from the coarsest map level to the finest. Every level is its own log-odds map
 updated with the scan, but only once the robot has moved map_update_distance_thresh or
 turned map_update_angle_thresh since the last map update. No wheel odometry; the IMU yaw
-rate optionally predicts the rotation between scans. The start pose is the log's.
+rate optionally predicts the rotation between scans and (prior_yaw_weight, not in hector)
+pulls every Gauss-Newton step towards that yaw. The start pose is the log's.
 """
 from __future__ import annotations
 
@@ -52,8 +53,18 @@ class GnConfig:
     check_prior: bool = True              # also match the finest level from the prior, keep the better (not in hector)
     prior_cost_ratio: float = 1.0         # the coarse-to-fine result must cost less than this x the prior's
     use_imu: bool = True                  # predict the rotation between scans from the gyro (hector: via the imu/tf prior)
-    constant_velocity: bool = False       # predict the translation with that mean velocity (hector: none)
+    constant_velocity: bool = False       # start the matching at the estimates' mean velocity (hector: at the last pose)
     deskew_velocity_window: float = 1.0   # s; de-skew translation uses the mean velocity of the estimates over this window (0 = rotation only)
+    # quadratic pull of every Gauss-Newton step towards the gyro-predicted yaw, in cost per scan
+    # point per rad^2 (not in hector, 0 = off): the MPU-9250 gyro's yaw change over one scan
+    # is far more precise than the matcher's, whose yaw noise (~0.5 deg) throws walls 3 m
+    # away by 2-3 cm; the matcher still corrects the gyro's slow drift
+    prior_yaw_weight: float = 30.0
+    # value the matcher reads in never-touched cells (hector: 0.5, log-odds 0). Lower values
+    # remove a bias of 0.5: noisy hits that fall behind a wall cost half of those in front of
+    # it, so a wall seen from one side only pushes the scan into it (rectangle_m, ends of
+    # the long walls); but they pull new walls onto known ones (swirl_m): kept at 0.5
+    match_unknown: float = 0.5
     # scan points for matching ([laser_min_dist, laser_max_dist] are its range limits); smoothing
     # over 9 beams divides the realistic range noise by up to 3 (not in hector)
     preprocess: MatchPreprocessConfig = field(default_factory=MatchPreprocessConfig)
@@ -70,6 +81,10 @@ class GnConfig:
             raise ValueError("need 0 < update_factor_free < 0.5 < update_factor_occupied < 1")
         if self.iterations_finest < 1 or self.iterations_coarse < 0:
             raise ValueError("iterations_finest must be >= 1 and iterations_coarse >= 0")
+        if self.prior_yaw_weight < 0:
+            raise ValueError(f"prior_yaw_weight must be >= 0, got {self.prior_yaw_weight}")
+        if not 0.0 <= self.match_unknown <= 1.0:
+            raise ValueError(f"match_unknown must lie in [0, 1], got {self.match_unknown}")
 
     @property
     def resolutions(self) -> list[float]:
@@ -80,29 +95,37 @@ class GnConfig:
 class _Level:
     """One map level: its log-odds grid and the probability image the matcher reads (cached)."""
 
-    def __init__(self, grid: LogOddsGrid):
+    def __init__(self, grid: LogOddsGrid, unknown: float = 0.5):
         self.grid = grid
+        self.unknown = float(unknown)
         self._prob = None
         self._meta = None
         self._version = -1
 
     def prob_meta(self) -> tuple[np.ndarray, np.ndarray]:
         if self._version != self.grid.version:
-            # never-touched cells read as log-odds 0 (p = 0.5), as in hector's grid
-            self._prob = np.ascontiguousarray(self.grid.prob(unknown=0.5))
+            # never-touched cells read as match_unknown (hector: log-odds 0, p = 0.5)
+            self._prob = np.ascontiguousarray(self.grid.prob(unknown=self.unknown))
             self._meta = self.grid.meta
             self._version = self.grid.version
         return self._prob, self._meta
 
 
-def _gauss_newton(prob, meta, pts, est, n_it, max_angle_step):
+_NO_PRIOR = np.zeros(3)
+
+
+def _gauss_newton(prob, meta, pts, est, n_it, max_angle_step, prior=None, prior_w=None):
     """n_it Gauss-Newton steps on one level; returns (pose, cost at the returned pose)."""
-    return gn_iterate(prob, meta, pts, np.asarray(est, dtype=np.float64), int(n_it), float(max_angle_step))
+    est = np.asarray(est, dtype=np.float64)
+    prior = est if prior is None else np.asarray(prior, dtype=np.float64)
+    prior_w = _NO_PRIOR if prior_w is None else np.asarray(prior_w, dtype=np.float64)
+    return gn_iterate(prob, meta, pts, est, int(n_it), float(max_angle_step), prior, prior_w)
 
 
 def match_scan(levels: list[tuple[np.ndarray, np.ndarray]], points: np.ndarray, pose: np.ndarray,
                iterations: list[int], max_angle_step: float = 0.2, check_prior: bool = True,
-               prior_cost_ratio: float = 1.0) -> np.ndarray:
+               prior_cost_ratio: float = 1.0, prior: np.ndarray | None = None,
+               prior_w: np.ndarray | None = None) -> np.ndarray:
     """Hector's coarse-to-fine Gauss-Newton scan matching.
 
     levels: [(prob (rows, cols), grid_meta (5,))] finest first; points: (N, 2) m in the robot
@@ -110,17 +133,18 @@ def match_scan(levels: list[tuple[np.ndarray, np.ndarray]], points: np.ndarray, 
     check_prior: also run the finest level from `pose` itself and keep whichever end has the
     lower cost (a coarse level can be biased by up to half its cell, out of the finest
     level's reach); the coarse path wins only with a cost below prior_cost_ratio times the
-    prior path's. Returns the refined (3,) pose.
+    prior path's. prior, prior_w: (3,) motion prior pose and its weights (see gn_iterate;
+    None = none). Returns the refined (3,) pose.
     """
     est = np.array(pose, dtype=np.float64)
     pts = np.ascontiguousarray(points, dtype=np.float64)
     for (prob, meta), n_it in list(zip(levels, iterations))[:0:-1]:
-        est, _ = _gauss_newton(prob, meta, pts, est, n_it, max_angle_step)
+        est, _ = _gauss_newton(prob, meta, pts, est, n_it, max_angle_step, prior, prior_w)
     prob, meta = levels[0]
-    est, cost = _gauss_newton(prob, meta, pts, est, iterations[0], max_angle_step)
+    est, cost = _gauss_newton(prob, meta, pts, est, iterations[0], max_angle_step, prior, prior_w)
     if check_prior and len(levels) > 1:
         alt, alt_cost = _gauss_newton(prob, meta, pts, np.array(pose, dtype=np.float64), iterations[0],
-                                      max_angle_step)
+                                      max_angle_step, prior, prior_w)
         if cost >= prior_cost_ratio * alt_cost:
             est = alt
     return est
@@ -135,8 +159,8 @@ class GaussNewtonSlam:
     def __init__(self, cfg: GnConfig, start: np.ndarray, rng: np.random.Generator):
         self.cfg = cfg
         l_free, l_occ = logodds(cfg.update_factor_free), logodds(cfg.update_factor_occupied)
-        self.levels = [_Level(LogOddsGrid(res, start[:2], l_free, l_occ, cfg.logodds_min, cfg.logodds_max))
-                       for res in cfg.resolutions]
+        self.levels = [_Level(LogOddsGrid(res, start[:2], l_free, l_occ, cfg.logodds_min, cfg.logodds_max),
+                              cfg.match_unknown) for res in cfg.resolutions]
         self.iterations = [cfg.iterations_finest] + [cfg.iterations_coarse] * (cfg.map_multi_res_levels - 1)
         self.pose = np.asarray(start, dtype=np.float64).copy()
         self._last_update_pose: np.ndarray | None = None
@@ -151,9 +175,12 @@ class GaussNewtonSlam:
         if self._last_update_pose is None:
             self.pose = predicted  # the first scan builds the map at the start pose
         elif len(pts.points):
+            prior_w = np.zeros(3)
+            if self.cfg.use_imu and imu is not None and len(imu.gyro):  # no gyro, no yaw prior
+                prior_w[2] = self.cfg.prior_yaw_weight * len(pts.points)
             self.pose = match_scan([lv.prob_meta() for lv in self.levels], pts.points, predicted,
                                    self.iterations, self.cfg.max_angle_step, self.cfg.check_prior,
-                                   self.cfg.prior_cost_ratio)
+                                   self.cfg.prior_cost_ratio, predicted, prior_w)
         else:
             self.pose = predicted
         if self._should_update_map():
@@ -164,7 +191,8 @@ class GaussNewtonSlam:
         return self.pose
 
     def _predict(self, scan: Scan, imu: ImuWindow | None) -> tuple[np.ndarray, np.ndarray | None]:
-        """Pose prior (last pose, yaw advanced by the gyro) and the twist for de-skewing."""
+        """Pose prior (last pose, optionally moved at the estimates' mean velocity, yaw advanced
+        by the gyro) and the twist for de-skewing."""
         pred = self.pose.copy()
         if not self._poses:
             return pred, None

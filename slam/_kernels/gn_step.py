@@ -82,14 +82,33 @@ def _solve3(H, g):
 
 
 @njit(cache=True)
-def gn_iterate(prob, grid_meta, pts_robot, pose, iterations, max_angle_step):
+def _add_prior(H, g, est, prior, prior_w):
+    """Adds sum_k prior_w[k] * (prior[k] - est[k])^2 (yaw difference wrapped) to the normal
+    equations in place; returns that cost."""
+    cost = 0.0
+    for k in range(3):
+        if prior_w[k] > 0.0:
+            d = prior[k] - est[k]
+            if k == 2:
+                d = (d + np.pi) % (2.0 * np.pi) - np.pi
+            H[k, k] += prior_w[k]
+            g[k] += prior_w[k] * d
+            cost += prior_w[k] * d * d
+    return cost
+
+
+@njit(cache=True)
+def gn_iterate(prob, grid_meta, pts_robot, pose, iterations, max_angle_step, prior, prior_w):
     """`iterations` Hector Gauss-Newton steps from pose (3,); the rotation of a step is clamped
-    to +-max_angle_step (rad). Returns (pose (3,), cost at that pose)."""
+    to +-max_angle_step (rad). prior: (3,) pose, prior_w: (3,) weights (cost per m^2, m^2,
+    rad^2; zeros = stock Hector) of a quadratic pull towards the prior added to the cost.
+    Returns (pose (3,), cost at that pose, prior term included)."""
     est = pose.copy()
     for _ in range(iterations):
         H, g, _ = gn_normal_equations(prob, grid_meta, pts_robot, est)
         if H[0, 0] == 0.0 or H[1, 1] == 0.0:
             break
+        _add_prior(H, g, est, prior, prior_w)
         step, ok = _solve3(H, g)
         if not ok:
             break
@@ -99,16 +118,26 @@ def gn_iterate(prob, grid_meta, pts_robot, pose, iterations, max_angle_step):
             step[2] = -max_angle_step
         est += step
         est[2] = (est[2] + np.pi) % (2.0 * np.pi) - np.pi
-    return est, gn_normal_equations(prob, grid_meta, pts_robot, est)[2]
+    H, g, cost = gn_normal_equations(prob, grid_meta, pts_robot, est)
+    return est, cost + _add_prior(H, g, est, prior, prior_w)
 
 
-def gn_iterate_ref(prob, grid_meta, pts_robot, pose, iterations, max_angle_step):
+def gn_iterate_ref(prob, grid_meta, pts_robot, pose, iterations, max_angle_step, prior=None, prior_w=None):
     """Reference of gn_iterate with the numpy normal equations and np.linalg.solve."""
     est = np.array(pose, dtype=np.float64)
+    prior = np.zeros(3) if prior is None else np.asarray(prior, dtype=np.float64)
+    W = np.diag(np.zeros(3) if prior_w is None else np.asarray(prior_w, dtype=np.float64))
+
+    def prior_diff(e):
+        d = prior - e
+        d[2] = (d[2] + np.pi) % (2.0 * np.pi) - np.pi
+        return d
+
     for _ in range(iterations):
         H, g, _ = gn_normal_equations_ref(prob, grid_meta, pts_robot, est)
         if H[0, 0] == 0.0 or H[1, 1] == 0.0:
             break
+        H, g = H + W, g + W @ prior_diff(est)
         try:
             step = np.linalg.solve(H, g)
         except np.linalg.LinAlgError:
@@ -116,4 +145,5 @@ def gn_iterate_ref(prob, grid_meta, pts_robot, pose, iterations, max_angle_step)
         step[2] = np.clip(step[2], -max_angle_step, max_angle_step)
         est = est + step
         est[2] = (est[2] + np.pi) % (2.0 * np.pi) - np.pi
-    return est, gn_normal_equations_ref(prob, grid_meta, pts_robot, est)[2]
+    d = prior_diff(est)
+    return est, gn_normal_equations_ref(prob, grid_meta, pts_robot, est)[2] + float(d @ W @ d)

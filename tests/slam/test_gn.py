@@ -53,10 +53,14 @@ def test_square_room_mapped_and_tracked(room_log):
     res = run_algorithm("gn", room_log)
     truth = truth_grid(box_room_segments())
     p, s = score(res.grid, truth)
-    assert p > 0.95 and s > 0.95, (p, s)
+    # 0.93 / 0.98 (0.97 / 0.98 without the yaw prior: its lag moves a few cells of this tiny
+    # map although the yaw itself is better, rms 0.26 degrees instead of 0.40)
+    assert p > 0.9 and s > 0.95, (p, s)
     gt = np.array([t for *_, t in _iter_inputs(room_log)])
     err = np.hypot(*(res.poses[:, :2] - gt[:, :2]).T)
     assert np.sqrt(np.mean(err ** 2)) < 0.03
+    yaw_err = wrap_angle(res.poses[:, 2] - gt[:, 2])
+    assert np.degrees(np.sqrt(np.mean(yaw_err ** 2))) < 0.35
     assert res.stats["map_updates"] >= 10
 
 
@@ -65,6 +69,19 @@ def test_deterministic(room_log):
     b = run_algorithm("gn", room_log, seed=1)
     np.testing.assert_array_equal(a.poses, b.poses)
     assert a.grid.equals(b.grid)
+
+
+def test_yaw_prior_changes_the_track_and_is_validated(room_log):
+    """prior_yaw_weight 0 (stock hector) is deterministic and differs from the default; bad values fail."""
+    stock = run_algorithm("gn", room_log, config={"prior_yaw_weight": 0.0})
+    again = run_algorithm("gn", room_log, config={"prior_yaw_weight": 0.0})
+    default = run_algorithm("gn", room_log)
+    np.testing.assert_array_equal(stock.poses, again.poses)
+    assert not np.array_equal(stock.poses, default.poses)
+    with pytest.raises(InputError):
+        load_config("gn", {"prior_yaw_weight": -1.0})
+    with pytest.raises(InputError):
+        load_config("gn", {"match_unknown": 1.5})
 
 
 def test_config_documents_hector_defaults_and_rejects_unknown_keys():
