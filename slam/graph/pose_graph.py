@@ -113,7 +113,7 @@ class PoseGraph:
         op = self.cfg.optimization_problem
         for _ in range(2):
             out = optimize_poses(poses, self.constraints(), fixed, huber_scale=op.huber_scale,
-                                 max_iterations=op.max_num_iterations)
+                                 max_iterations=op.max_num_iterations, solver=op.solver)
             if op.max_loop_residual <= 0 or not self.loops:
                 break
             # Ours: a loop closure the optimum still disagrees with by more than max_loop_residual

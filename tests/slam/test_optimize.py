@@ -70,9 +70,24 @@ def test_wrong_loop_closure_is_tolerated(rng):
     init[0] = truth[0]
     out = optimize_poses(init, c, huber_scale=1.0)
     ate = np.sqrt(np.mean(np.sum((out[:, :2] - truth[:, :2]) ** 2, axis=1)))
-    assert ate < 0.05
+    # The converged optimum still feels the capped pull of the closure (~0.1 m on a 3 m ring).
+    assert ate < 0.15
     # Without the robust loss the same closure does wreck it: the test can fail.
     c_nonrobust = Constraints(c.i, c.j, c.z, c.w_t, c.w_r, np.zeros_like(c.robust))
     out2 = optimize_poses(init, c_nonrobust)
     ate2 = np.sqrt(np.mean(np.sum((out2[:, :2] - truth[:, :2]) ** 2, axis=1)))
-    assert ate2 > ate
+    assert ate2 > 10 * ate
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_sparse_lm_matches_trf_optimum(seed):
+    rng = np.random.default_rng(seed)
+    truth = _ring(30)
+    c = _graph(truth, rng, sigma_t=0.005, sigma_r=0.002, loops=((0, -1), (4, 20)))
+    init = truth + rng.normal(0, 0.03, truth.shape)
+    init[0] = truth[0]
+    a = optimize_poses(init, c, solver="lm")
+    b = optimize_poses(init, c, solver="trf", max_iterations=500)
+    np.testing.assert_allclose(a, b, atol=1e-4)
+    with pytest.raises(ValueError):
+        optimize_poses(init, c, solver="nope")
