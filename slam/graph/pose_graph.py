@@ -80,26 +80,27 @@ class PoseGraph:
     def constraints(self) -> Constraints:
         """All constraints over the variables [submaps..., nodes...]."""
         ns = len(self.submap_global)
-        i, j, z, wt, wr, rob = [], [], [], [], [], []
-        for n, subs in enumerate(self.node_submaps):
-            for s in subs:
-                i.append(s); j.append(ns + n)
-                z.append(relative(self.submaps[s].local_pose, self.node_local[n]))
-                wt.append(self.cfg.matcher_translation_weight); wr.append(self.cfg.matcher_rotation_weight)
-                rob.append(False)
+        nl = np.array(self.node_local).reshape(-1, 3)
+        sub_local = np.array([self.submaps[k].local_pose for k in range(ns)]).reshape(-1, 3)
+        counts = np.array([len(subs) for subs in self.node_submaps], int)
+        intra_s = np.array([s for subs in self.node_submaps for s in subs], int)
+        intra_n = np.repeat(np.arange(len(nl)), counts)
         op = self.cfg.optimization_problem
-        for n in range(1, len(self.node_local)):
-            i.append(ns + n - 1); j.append(ns + n)
-            z.append(relative(self.node_local[n - 1], self.node_local[n]))
-            wt.append(op.local_slam_pose_translation_weight); wr.append(op.local_slam_pose_rotation_weight)
-            rob.append(False)
         cb = self.cfg.constraint_builder
-        for c in self.loops:
-            i.append(c.submap); j.append(ns + c.node); z.append(c.z)
-            wt.append(cb.loop_closure_translation_weight); wr.append(cb.loop_closure_rotation_weight)
-            rob.append(True)
-        return Constraints(np.array(i, int), np.array(j, int), np.array(z, float).reshape(-1, 3),
-                           np.array(wt, float), np.array(wr, float), np.array(rob, bool))
+        n_in, n_ch, n_lc = len(intra_s), max(len(nl) - 1, 0), len(self.loops)
+        i = np.concatenate([intra_s, ns + np.arange(n_ch), np.array([c.submap for c in self.loops], int)])
+        j = np.concatenate([ns + intra_n, ns + 1 + np.arange(n_ch), ns + np.array([c.node for c in self.loops], int)])
+        z = np.vstack([relative(sub_local[intra_s], nl[intra_n]).reshape(-1, 3),
+                       relative(nl[:-1], nl[1:]).reshape(-1, 3),
+                       np.array([c.z for c in self.loops], float).reshape(-1, 3)])
+        wt = np.concatenate([np.full(n_in, self.cfg.matcher_translation_weight),
+                             np.full(n_ch, op.local_slam_pose_translation_weight),
+                             np.full(n_lc, cb.loop_closure_translation_weight)])
+        wr = np.concatenate([np.full(n_in, self.cfg.matcher_rotation_weight),
+                             np.full(n_ch, op.local_slam_pose_rotation_weight),
+                             np.full(n_lc, cb.loop_closure_rotation_weight)])
+        rob = np.concatenate([np.zeros(n_in + n_ch, bool), np.ones(n_lc, bool)])
+        return Constraints(i, j, z, wt, wr, rob)
 
     def optimize(self) -> None:
         """Sparse pose adjustment over all submaps and nodes; the first submap holds the gauge."""
@@ -118,8 +119,10 @@ class PoseGraph:
                 break
             # Ours: a loop closure the optimum still disagrees with by more than max_loop_residual
             # is taken for a false match, dropped, and the problem solved again.
-            err = np.array([np.hypot(*(relative(out[c.submap], out[ns + c.node])[:2] - c.z[:2]))
-                            for c in self.loops])
+            ls = np.array([c.submap for c in self.loops], int)
+            ln = np.array([c.node for c in self.loops], int)
+            lz = np.array([c.z for c in self.loops], float)
+            err = np.hypot(*(relative(out[ls], out[ns + ln])[:, :2] - lz[:, :2]).T)
             bad = err > op.max_loop_residual
             if not bad.any():
                 break
