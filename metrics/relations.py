@@ -33,6 +33,8 @@ from pathlib import Path
 import numpy as np
 
 from worlds.yamlio import InputError
+from slam.pose import compose, interpolate_poses, inverse, wrap_angle
+from metrics.tum import read_number_rows
 
 __all__ = ["Relations", "read_relations", "lookup_poses", "relation_errors", "relations_error",
            "relations_from_files", "add_relations_arguments", "relations_main", "format_relations",
@@ -76,62 +78,13 @@ def read_relations(path: str | os.PathLike) -> Relations:
     with roll or pitch (not planar) or a file without relations raises InputError naming the
     file and the line.
     """
-    p = Path(path)
-    try:
-        text = p.read_text()
-    except FileNotFoundError:
-        raise InputError(f"{p}: file not found") from None
-    except (OSError, UnicodeDecodeError) as err:
-        raise InputError(f"{p}: cannot read as text: {err}") from None
-    rows = []
-    for lineno, line in enumerate(text.splitlines(), start=1):
-        s = line.strip()
-        if not s or s.startswith("#"):
-            continue
-        parts = s.split()
-        if len(parts) != 8:
-            raise InputError(f"{p}: line {lineno}: expected 8 numbers 't1 t2 x y z roll pitch yaw', "
-                             f"got {len(parts)} fields")
-        try:
-            vals = [float(v) for v in parts]
-        except ValueError:
-            raise InputError(f"{p}: line {lineno}: not a number in {s[:60]!r}") from None
-        if not np.all(np.isfinite(vals)):
-            raise InputError(f"{p}: line {lineno}: non-finite value")
-        if abs(vals[5]) > 1e-6 or abs(vals[6]) > 1e-6:
-            raise InputError(f"{p}: line {lineno}: roll/pitch {vals[5]}, {vals[6]} not zero "
-                             "(a 2D metric needs planar relations)")
-        rows.append(vals)
-    if not rows:
-        raise InputError(f"{p}: no relations (not a relations file?)")
-    a = np.array(rows)
+    p, a, linenos = read_number_rows(path, "t1 t2 x y z roll pitch yaw", "no relations (not a relations file?)")
+    tilted = np.flatnonzero((np.abs(a[:, 5]) > 1e-6) | (np.abs(a[:, 6]) > 1e-6))
+    if len(tilted):
+        i = tilted[0]
+        raise InputError(f"{p}: line {linenos[i]}: roll/pitch {a[i, 5]}, {a[i, 6]} not zero "
+                         "(a 2D metric needs planar relations)")
     return Relations(a[:, 0], a[:, 1], a[:, [2, 3, 7]])
-
-
-# --- SE(2) helpers (kept local: metrics reads nothing of slam) -------------------------------
-
-def _wrap(a):
-    return np.angle(np.exp(1j * np.asarray(a, dtype=np.float64)))
-
-
-def _compose(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    c, s = np.cos(a[..., 2]), np.sin(a[..., 2])
-    return np.stack([a[..., 0] + c * b[..., 0] - s * b[..., 1],
-                     a[..., 1] + s * b[..., 0] + c * b[..., 1],
-                     _wrap(a[..., 2] + b[..., 2])], axis=-1)
-
-
-def _inverse(a: np.ndarray) -> np.ndarray:
-    c, s = np.cos(a[..., 2]), np.sin(a[..., 2])
-    return np.stack([-c * a[..., 0] - s * a[..., 1], s * a[..., 0] - c * a[..., 1],
-                     _wrap(-a[..., 2])], axis=-1)
-
-
-def _interpolate(tq: np.ndarray, t: np.ndarray, poses: np.ndarray) -> np.ndarray:
-    """(Q, 3) poses at tq by linear interpolation (yaw along the shorter arc); tq within t."""
-    yaw = np.unwrap(poses[:, 2])
-    return np.stack([np.interp(tq, t, poses[:, 0]), np.interp(tq, t, poses[:, 1]),
-                     _wrap(np.interp(tq, t, yaw))], axis=1)
 
 
 def _check_trajectory(times, poses, what: str) -> tuple[np.ndarray, np.ndarray]:
@@ -174,15 +127,15 @@ def lookup_poses(tq: np.ndarray, times: np.ndarray, poses: np.ndarray,
         if len(t) == 1:
             out[ok] = p[0]
         else:
-            out[ok] = _interpolate(np.clip(tq[ok], t[0], t[-1]), t, p)
+            out[ok] = interpolate_poses(np.clip(tq[ok], t[0], t[-1]), t, p)
         return out
     ot, op = _check_trajectory(odom[0], odom[1], "odometry")
     # odometry exists only over its own span; the scan node must lie in it too
     ok = (tq >= ot[0] - tolerance) & (tq <= ot[-1] + tolerance)
     ok &= (t[near] >= ot[0] - tolerance) & (t[near] <= ot[-1] + tolerance)
-    o_q = _interpolate(np.clip(tq[ok], ot[0], ot[-1]), ot, op)
-    o_k = _interpolate(np.clip(t[near[ok]], ot[0], ot[-1]), ot, op)
-    out[ok] = _compose(p[near[ok]], _compose(_inverse(o_k), o_q))
+    o_q = interpolate_poses(np.clip(tq[ok], ot[0], ot[-1]), ot, op)
+    o_k = interpolate_poses(np.clip(t[near[ok]], ot[0], ot[-1]), ot, op)
+    out[ok] = compose(p[near[ok]], compose(inverse(o_k), o_q))
     return out
 
 
@@ -192,9 +145,9 @@ def relation_errors(pose1: np.ndarray, pose2: np.ndarray, delta: np.ndarray
 
     pose1, pose2, delta: (R, 3) x, y, yaw.
     """
-    est = _compose(_inverse(np.asarray(pose1, float)), np.asarray(pose2, float))
-    err = _compose(est, _inverse(np.asarray(delta, float)))
-    return np.hypot(err[:, 0], err[:, 1]), np.abs(_wrap(err[:, 2]))
+    est = compose(inverse(np.asarray(pose1, float)), np.asarray(pose2, float))
+    err = compose(est, inverse(np.asarray(delta, float)))
+    return np.hypot(err[:, 0], err[:, 1]), np.abs(wrap_angle(err[:, 2]))
 
 
 def _mean_std(v: np.ndarray) -> tuple[float, float]:

@@ -12,13 +12,52 @@ import numpy as np
 
 from worlds.yamlio import InputError, atomic_write_text
 
-__all__ = ["read_tum", "write_tum", "yaw_from_quaternion"]
+__all__ = ["read_tum", "write_tum", "yaw_from_quaternion", "read_number_rows"]
 
 
 def yaw_from_quaternion(qx, qy, qz, qw):
     """Yaw (rad, rotation about z) of quaternion(s) (x, y, z, w); arrays broadcast."""
     qx, qy, qz, qw = (np.asarray(q, dtype=np.float64) for q in (qx, qy, qz, qw))
     return np.arctan2(2.0 * (qw * qz + qx * qy), 1.0 - 2.0 * (qy * qy + qz * qz))
+
+
+def read_number_rows(path: str | os.PathLike, layout: str, empty: str
+                     ) -> tuple[Path, np.ndarray, np.ndarray]:
+    """Rows of a whitespace-separated text table with one field per name in `layout`.
+
+    Blank lines and '#' lines are skipped; a missing file, a line with another number of
+    fields, a non-number or a non-finite value raise InputError naming the file and line, and
+    so does a file without rows (message `empty`). Returns (path, (N, fields) float64 array,
+    (N,) line numbers of the rows, for messages about a row).
+    """
+    p = Path(path)
+    try:
+        text = p.read_text()
+    except FileNotFoundError:
+        raise InputError(f"{p}: file not found") from None
+    except (OSError, UnicodeDecodeError) as err:
+        raise InputError(f"{p}: cannot read as text: {err}") from None
+    n = len(layout.split())
+    rows, linenos = [], []
+    for lineno, line in enumerate(text.splitlines(), start=1):
+        s = line.strip()
+        if not s or s.startswith("#"):
+            continue
+        parts = s.replace(",", " ").split()
+        if len(parts) != n:
+            raise InputError(f"{p}: line {lineno}: expected {n} numbers '{layout}', "
+                             f"got {len(parts)} fields")
+        try:
+            vals = [float(v) for v in parts]
+        except ValueError:
+            raise InputError(f"{p}: line {lineno}: not a number in {s[:60]!r}") from None
+        if not np.all(np.isfinite(vals)):
+            raise InputError(f"{p}: line {lineno}: non-finite value")
+        rows.append(vals)
+        linenos.append(lineno)
+    if not rows:
+        raise InputError(f"{p}: {empty}")
+    return p, np.array(rows), np.array(linenos)
 
 
 def read_tum(path: str | os.PathLike) -> tuple[np.ndarray, np.ndarray]:
@@ -29,34 +68,10 @@ def read_tum(path: str | os.PathLike) -> tuple[np.ndarray, np.ndarray]:
     8 numbers, a zero quaternion, repeated times or an empty file raise InputError naming
     the file and line.
     """
-    p = Path(path)
-    try:
-        text = p.read_text()
-    except FileNotFoundError:
-        raise InputError(f"{p}: file not found") from None
-    except (OSError, UnicodeDecodeError) as err:
-        raise InputError(f"{p}: cannot read as text: {err}") from None
-    rows = []
-    for lineno, line in enumerate(text.splitlines(), start=1):
-        s = line.strip()
-        if not s or s.startswith("#"):
-            continue
-        parts = s.replace(",", " ").split()
-        if len(parts) != 8:
-            raise InputError(f"{p}: line {lineno}: expected 8 numbers 't x y z qx qy qz qw', "
-                             f"got {len(parts)} fields")
-        try:
-            vals = [float(v) for v in parts]
-        except ValueError:
-            raise InputError(f"{p}: line {lineno}: not a number in {s[:60]!r}") from None
-        if not np.all(np.isfinite(vals)):
-            raise InputError(f"{p}: line {lineno}: non-finite value")
-        if np.hypot(np.hypot(vals[4], vals[5]), np.hypot(vals[6], vals[7])) < 1e-9:
-            raise InputError(f"{p}: line {lineno}: zero quaternion")
-        rows.append(vals)
-    if not rows:
-        raise InputError(f"{p}: no poses (not a TUM trajectory file?)")
-    a = np.array(rows)
+    p, a, linenos = read_number_rows(path, "t x y z qx qy qz qw", "no poses (not a TUM trajectory file?)")
+    zero = np.flatnonzero(np.hypot(np.hypot(a[:, 4], a[:, 5]), np.hypot(a[:, 6], a[:, 7])) < 1e-9)
+    if len(zero):
+        raise InputError(f"{p}: line {linenos[zero[0]]}: zero quaternion")
     order = np.argsort(a[:, 0], kind="stable")
     a = a[order]
     if np.any(np.diff(a[:, 0]) <= 0):
