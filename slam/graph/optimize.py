@@ -123,7 +123,8 @@ def optimize_poses(poses: np.ndarray, c: Constraints, fixed: np.ndarray | None =
     the Huber loss on robust constraints (in weighted-residual units, Cartographer's
     optimization_problem.huber_scale); solver: "lm" (sparse normal equations) or "trf"
     (scipy least_squares); tolerance: stop when the cost falls by less than this fraction
-    (default: Ceres' function_tolerance 1e-6 for "lm", 1e-8 for "trf").
+    (default: 1e-5 for "lm", ten times Ceres' function_tolerance: with the small Huber scale
+    the last iterations crawl and change the map by nothing; 1e-8 for "trf").
     Returns (P, 3) optimized poses (yaw wrapped).
     """
     poses = np.asarray(poses, dtype=np.float64).copy()
@@ -154,7 +155,7 @@ def optimize_poses(poses: np.ndarray, c: Constraints, fixed: np.ndarray | None =
         return _jacobian(current(x), c, free_col, len(free_idx))
 
     if tolerance is None:
-        tolerance = 1e-6 if solver == "lm" else 1e-8
+        tolerance = 1e-5 if solver == "lm" else 1e-8
     if solver == "lm":
         x = _sparse_lm(fun, jac, x0, robust_rows, huber_scale, max_iterations, tolerance)
         out = current(x)

@@ -128,6 +128,7 @@ class PoseGraph:
                 break
             self.rejected += int(bad.sum())
             self.loops = [c for c, b in zip(self.loops, bad) if not b]
+            poses = out                       # warm start: the first optimum is close
         self.submap_global = [p for p in out[:ns]]
         self.node_global = [p for p in out[ns:]]
         last = ns - 1
