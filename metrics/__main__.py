@@ -2,7 +2,7 @@
 
   score      --map MAP.yaml --truth TRUTH.yaml [--align MODE] [--start X,Y,YAW|none]
              [--tolerance N] [--picture OUT.png] [--title TEXT] [--json]
-  trajectory --est EST.tum --truth GT.tum [--segment M] [--json]
+  trajectory --est EST.tum --truth GT.tum|LOG.npz [--segment M] [--json]
   relations  --traj EST.tum --relations FILE [--odom LOG] [--lookup interpolate|exact] [--json]
              (options and output are metrics.relations')
 
@@ -70,7 +70,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     t = sub.add_parser("trajectory", help="ATE and RPE of a TUM trajectory against the true one")
     t.add_argument("--est", required=True, help="estimated trajectory (TUM)")
-    t.add_argument("--truth", required=True, help="true trajectory (TUM)")
+    t.add_argument("--truth", required=True, help="true trajectory: TUM file, or the sensor log (.npz) whose gt_pose to use")
     t.add_argument("--segment", type=float, default=1.0, help="RPE segment length, m (default 1)")
     t.add_argument("--json", action="store_true")
 
@@ -136,7 +136,15 @@ def _trajectory(args) -> int:
     from metrics.tum import read_tum
 
     et, ep = read_tum(args.est)
-    gt, gp = read_tum(args.truth)
+    if str(args.truth).endswith(".npz"):
+        # a simulated sensor log carries the true path: no separate file needed
+        from sim.log import read_log
+        log = read_log(args.truth)
+        if not log.has_ground_truth:
+            raise InputError(f"{args.truth}: the log has no ground truth (gt_t, gt_pose empty)")
+        gt, gp = log.gt_t, log.gt_pose
+    else:
+        gt, gp = read_tum(args.truth)
     _print(trajectory_error(et, ep, gt, gp, segment_m=args.segment), args.json)
     return 0
 

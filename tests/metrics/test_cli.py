@@ -115,6 +115,21 @@ def test_trajectory_command(capsys, tmp_path):
                                  tmp_path / "gt.tum"]))
 
 
+def test_trajectory_truth_from_a_sensor_log(capsys, tmp_path):
+    from sim.log import SensorLog, write_log
+    t = np.linspace(0, 20, 201)
+    gt = np.column_stack([0.1 * t, np.sin(0.2 * t), 0.1 * t])
+    write_log(SensorLog(t[:3], np.ones((3, 4)), np.linspace(0, 3, 4), gt_t=t, gt_pose=gt), tmp_path / "log.npz")
+    write_tum(tmp_path / "est.tum", t, gt + [0.3, 0.4, 0.0])
+    code, out, err = run(capsys, ["trajectory", "--est", tmp_path / "est.tum", "--truth",
+                                  tmp_path / "log.npz", "--json"])
+    assert code == 0, err
+    assert json.loads(out)["ate_start_m"] == pytest.approx(0.5, abs=1e-6)
+    write_log(SensorLog(t[:3], np.ones((3, 4)), np.linspace(0, 3, 4)), tmp_path / "nogt.npz")
+    one_line_error(*run(capsys, ["trajectory", "--est", tmp_path / "est.tum", "--truth",
+                                   tmp_path / "nogt.npz"]))
+
+
 def test_relations_command_is_wired(capsys, tmp_path):
     pytest.importorskip("metrics.relations")
     t = np.arange(0.0, 10.0, 0.5)
