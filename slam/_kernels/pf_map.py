@@ -107,6 +107,19 @@ def beam_world(pose, origin, ends):
 
 
 @njit(cache=True)
+def ray_buffer_len(poses, origin, ends, res):
+    """Cells the longest ray of any pose can cross (Manhattan length in cells + margin)."""
+    m = 4
+    for p in range(poses.shape[0]):
+        o, w = beam_world(poses[p], origin, ends)
+        for k in range(w.shape[0]):
+            need = int(abs(w[k, 0] - o[0]) / res + abs(w[k, 1] - o[1]) / res) + 4
+            if need > m:
+                m = need
+    return m
+
+
+@njit(cache=True)
 def mark_touched(n_tile_rows, n_tile_cols, grid_meta, poses, origin, ends):
     """(N, TR, TC) bool: the tiles that inserting `ends` at each of `poses` writes to.
 
@@ -116,13 +129,7 @@ def mark_touched(n_tile_rows, n_tile_cols, grid_meta, poses, origin, ends):
     rows, cols, tile = int(grid_meta[3]), int(grid_meta[4]), int(grid_meta[5])
     n = poses.shape[0]
     mask = np.zeros((n, n_tile_rows, n_tile_cols), dtype=np.bool_)
-    m = 4
-    for p in range(n):
-        o, w = beam_world(poses[p], origin, ends)
-        for k in range(w.shape[0]):
-            need = int(abs(w[k, 0] - o[0]) / res + abs(w[k, 1] - o[1]) / res) + 4
-            if need > m:
-                m = need
+    m = ray_buffer_len(poses, origin, ends, res)
     buf_c = np.empty(m, dtype=np.int64)
     buf_r = np.empty(m, dtype=np.int64)
     for p in range(n):
@@ -179,13 +186,7 @@ def insert_scans(tables, pool, grid_meta, poses, origin, ends, hit):
     ox, oy, res = grid_meta[0], grid_meta[1], grid_meta[2]
     rows, cols, tile = int(grid_meta[3]), int(grid_meta[4]), int(grid_meta[5])
     n = poses.shape[0]
-    m = 4
-    for p in range(n):
-        o, w = beam_world(poses[p], origin, ends)
-        for k in range(w.shape[0]):
-            need = int(abs(w[k, 0] - o[0]) / res + abs(w[k, 1] - o[1]) / res) + 4
-            if need > m:
-                m = need
+    m = ray_buffer_len(poses, origin, ends, res)
     buf_c = np.empty(m, dtype=np.int64)
     buf_r = np.empty(m, dtype=np.int64)
     for p in range(n):
