@@ -53,6 +53,17 @@ class PreparedTruth:
             self._cache[key] = (score, lo)
         return self._cache[key]
 
+    def normals(self) -> tuple[np.ndarray, np.ndarray]:
+        """Per true cell: unit normal (M, 2) of the wall through it and a weight (M,) in [0, 1].
+
+        Principal axes of the true cells within 2.5 cells: the normal is the minor axis, the
+        weight 1 - minor/major eigenvalue (1 on a straight wall, ~0 at a corner or an isolated
+        cell, where no line is defined). Built once per truth.
+        """
+        if "normals" not in self._cache:
+            self._cache["normals"] = _cell_normals(self.points, self.tree, 2.5 * self.resolution)
+        return self._cache["normals"]
+
     def spectrum(self, cell_m: float, shape: tuple[int, int]) -> np.ndarray:
         """rfft2 of the coarse score image zero-padded to `shape`, cached."""
         key = ("fft", round(cell_m, 12), shape)
@@ -60,6 +71,32 @@ class PreparedTruth:
             score, _ = self.coarse_score(cell_m)
             self._cache[key] = np.fft.rfft2(score, s=shape)
         return self._cache[key]
+
+
+def _cell_normals(points: np.ndarray, tree: cKDTree, radius: float) -> tuple[np.ndarray, np.ndarray]:
+    m = len(points)
+    pairs = tree.query_pairs(radius, output_type="ndarray")
+    # neighbourhood sums over both directions of each pair plus the point itself
+    i = np.concatenate([pairs[:, 0], pairs[:, 1], np.arange(m)])
+    j = np.concatenate([pairs[:, 1], pairs[:, 0], np.arange(m)])
+    cnt = np.bincount(i, minlength=m).astype(np.float64)
+    q = points[j]
+    mean = np.stack([np.bincount(i, q[:, 0], m), np.bincount(i, q[:, 1], m)], axis=1) / cnt[:, None]
+    d = q - mean[i]
+    sxx = np.bincount(i, d[:, 0] * d[:, 0], m) / cnt
+    syy = np.bincount(i, d[:, 1] * d[:, 1], m) / cnt
+    sxy = np.bincount(i, d[:, 0] * d[:, 1], m) / cnt
+    # closed-form eigen decomposition of the 2x2 covariance [[sxx, sxy], [sxy, syy]]
+    half_tr = 0.5 * (sxx + syy)
+    disc = np.sqrt(np.maximum(0.25 * (sxx - syy) ** 2 + sxy ** 2, 0.0))
+    lam_max, lam_min = half_tr + disc, half_tr - disc
+    # major axis angle; the normal is perpendicular to it
+    ang = 0.5 * np.arctan2(2 * sxy, sxx - syy)
+    normals = np.stack([-np.sin(ang), np.cos(ang)], axis=1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        weight = np.where(lam_max > 0, 1.0 - lam_min / lam_max, 0.0)
+    weight[cnt < 3] = 0.0
+    return normals, np.clip(weight, 0.0, 1.0)
 
 
 def _build(grid: Grid, occupied_thresh: float) -> PreparedTruth:
