@@ -10,6 +10,7 @@ from __future__ import annotations
 import dataclasses
 import difflib
 import os
+import re
 import tempfile
 import types
 import typing
@@ -17,6 +18,8 @@ from pathlib import Path
 from typing import Any, Mapping
 
 import yaml
+
+_EXPONENT_FLOAT = re.compile(r"^[-+]?(\d+\.?\d*|\.\d+)[eE][-+]?\d+$")
 
 __all__ = ["InputError", "load_yaml", "from_dict", "to_dict", "dump_yaml", "atomic_write_bytes",
            "atomic_write_text"]
@@ -81,6 +84,10 @@ def _convert(tp: Any, value: Any, where: str, field: str) -> Any:
             raise InputError(f"{where}: {field}: expected an integer, got {value!r}")
         return value
     if tp is float:
+        if isinstance(value, str) and _EXPONENT_FLOAT.match(value):
+            # PyYAML reads YAML 1.1, where 1e5 (no dot, no sign) is a string; YAML 1.2 and
+            # every user mean the number
+            return float(value)
         if isinstance(value, bool) or not isinstance(value, (int, float)):
             raise InputError(f"{where}: {field}: expected a number, got {value!r}")
         return float(value)
