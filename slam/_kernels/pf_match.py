@@ -88,7 +88,9 @@ def extract_patches(tables, pool, grid_meta, boxes, fullness):
     return occ, mean, corner
 
 
-@njit(cache=True)
+# Reordered floating point (no ninf/nnan: `best` starts at inf) is about 10 % faster on the
+# filter's hottest loop; trajectories differ from strict IEEE order by ~1e-14 m.
+@njit(cache=True, fastmath={"nsz", "arcp", "contract", "afn", "reassoc"})
 def score_and_likelihood(occ, mean, corner, grid_meta, pose, hits, frees, params):
     """(score, log likelihood) of one robot pose (3,) against one particle's map patch.
 
