@@ -109,6 +109,24 @@ def warm_up(algo: str, log, config=None) -> None:
         pass
 
 
+def compile_algorithm(algo: str, log_source, config=None, algo_cls: type | None = None) -> str:
+    """Warm `algo` up in this worker (see warm_up); returns `algo`.
+
+    The runner sends one of these per algorithm before the SLAM tasks, so the workers compile
+    different algorithms side by side and each kernel is compiled once, then loaded from
+    numba's cache by the other workers, instead of every worker compiling every algorithm.
+    """
+    from slam.base import ALGORITHMS, _ensure_builtin_algorithms, register
+    _ensure_builtin_algorithms()
+    if algo_cls is not None and algo not in ALGORITHMS:
+        register(algo)(algo_cls)
+    try:
+        warm_up(algo, _load_log(log_source), config)
+    except Exception:
+        pass  # the timed run reports what is wrong
+    return algo
+
+
 def check_divergence(poses: np.ndarray, bounds, margin: float = DIVERGE_MARGIN_M) -> str | None:
     """None if the (N, 3) trajectory is finite and within `bounds` +- margin, else why not."""
     poses = np.asarray(poses, dtype=np.float64).reshape(-1, 3)

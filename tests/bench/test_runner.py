@@ -150,3 +150,26 @@ def test_dead_worker_is_reported_and_rows_kept(tiny, tmp_path):
     assert out.crashed and "worker process died" in out.crashed and not out.complete
     rows = read_rows(tmp_path / "run") if (tmp_path / "run" / "results.json").exists() else []
     assert all(r["algo"] == "fake_map" for r in rows)
+
+
+def test_each_algorithm_is_compiled_once_before_any_task(tiny, tmp_path, monkeypatch):
+    import bench.runner as runner
+    calls = []
+    real_compile, real_execute = runner.compile_algorithm, runner.execute
+
+    def compile_spy(algo, *a, **k):
+        calls.append(("compile", algo))
+        return real_compile(algo, *a, **k)
+
+    def execute_spy(task, *a, **k):
+        calls.append(("task", task.algo))
+        return real_execute(task, *a, **k)
+
+    monkeypatch.setattr(runner, "compile_algorithm", compile_spy)
+    monkeypatch.setattr(runner, "execute", execute_spy)
+    out = run_benchmark(_spec(tiny, algos=("fake_map", "fake_diverge")), tmp_path / "run", jobs=1,
+                        progress=False)
+    assert out.complete
+    kinds = [k for k, _ in calls]
+    assert kinds == ["compile"] * 2 + ["task"] * 4
+    assert sorted(a for k, a in calls if k == "compile") == ["fake_diverge", "fake_map"]
