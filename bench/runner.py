@@ -50,6 +50,7 @@ class RunOutcome:
 # oracle 1); the compile jobs go out heaviest first so the workers finish them together
 COMPILE_ORDER = {"pf": 12.0, "graph": 8.0, "gn": 4.0, "oracle": 1.0}
 
+
 def default_out_dir() -> Path:
     """runs/<UTC timestamp> under the current directory."""
     return Path("runs") / _dt.datetime.now(_dt.timezone.utc).strftime("%Y%m%d-%H%M%S")
@@ -215,14 +216,14 @@ def run_benchmark(spec: RunSpec, out_dir: str | Path, jobs: int | None = None,
 
     warming: set = set()      # futures of compile jobs still running
     deferred: list = []       # (log key, log source) whose tasks wait for the compile jobs
-    compile_started = [False]
+    compile_started = False
 
     def submit_tasks(lkey, log_source):
-        if not compile_started[0]:
+        nonlocal compile_started
+        if not compile_started:
             # One compile job per algorithm, heaviest first, before any SLAM task: the workers
-            # compile side by side instead of each compiling everything (cold cache: ~25 s
-            # of compilation per worker saved down to about half).
-            compile_started[0] = True
+            # compile side by side instead of each compiling every algorithm itself.
+            compile_started = True
             for a in sorted(spec.algos, key=lambda a: -COMPILE_ORDER.get(a, 0)):
                 fut = ex.submit(compile_algorithm, a, log_source, configs[a], algo_classes[a])
                 pending[fut] = ("compile", a)
