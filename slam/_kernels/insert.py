@@ -18,7 +18,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-__all__ = ["insert_rays_inplace", "insert_rays_ref"]
+__all__ = ["insert_rays_inplace", "insert_rays_ref", "axis_walk"]
 
 # marks in the per-call scratch grid
 _UNTOUCHED, _FREED, _HIT = 0, 1, 2
@@ -38,6 +38,20 @@ def _apply(logodds, r, c, l, l_min, l_max):
 
 
 @njit(cache=True)
+def axis_walk(p0, cell, d):
+    """One axis of an Amanatides-Woo walk from coordinate p0 (cell units) in cell `cell`
+    along the segment's extent d: (step -1/0/1, parameter per cell crossed, parameter at
+    the first cell border)."""
+    if d > 0:
+        t_delta = 1.0 / d
+        return 1, t_delta, (cell + 1 - p0) * t_delta
+    if d < 0:
+        t_delta = -1.0 / d
+        return -1, t_delta, (p0 - cell) * t_delta
+    return 0, np.inf, np.inf
+
+
+@njit(cache=True)
 def _traverse(x0, y0, x1, y1, path):
     """Cells (col, row) from the cell of (x0, y0) to the cell of (x1, y1), map units, into
     path (K, 2); returns their number (Amanatides-Woo, 4-connected)."""
@@ -47,30 +61,8 @@ def _traverse(x0, y0, x1, y1, path):
     ey = int(np.floor(y1))
     dx = x1 - x0
     dy = y1 - y0
-    if dx > 0:
-        sx = 1
-        tdx = 1.0 / dx
-        tmx = (cx + 1 - x0) * tdx
-    elif dx < 0:
-        sx = -1
-        tdx = -1.0 / dx
-        tmx = (x0 - cx) * tdx
-    else:
-        sx = 0
-        tdx = np.inf
-        tmx = np.inf
-    if dy > 0:
-        sy = 1
-        tdy = 1.0 / dy
-        tmy = (cy + 1 - y0) * tdy
-    elif dy < 0:
-        sy = -1
-        tdy = -1.0 / dy
-        tmy = (y0 - cy) * tdy
-    else:
-        sy = 0
-        tdy = np.inf
-        tmy = np.inf
+    sx, tdx, tmx = axis_walk(x0, cx, dx)
+    sy, tdy, tmy = axis_walk(y0, cy, dy)
     steps = abs(ex - cx) + abs(ey - cy)
     if steps + 1 > path.shape[0]:
         steps = path.shape[0] - 1  # cannot happen for rays inside the grid

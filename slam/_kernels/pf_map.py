@@ -27,6 +27,8 @@ import math
 import numpy as np
 from numba import njit
 
+from slam._kernels.insert import axis_walk
+
 __all__ = ["N_FIELDS", "ray_cells", "mark_touched", "privatize", "insert_scans",
            "beam_world", "ray_cells_ref", "insert_scan_ref"]
 
@@ -46,30 +48,8 @@ def ray_cells(u0, v0, u1, v1, out_c, out_r):
     re = int(math.floor(v1))
     du = u1 - u0
     dv = v1 - v0
-    if du > 0:
-        step_c = 1
-        t_delta_c = 1.0 / du
-        t_max_c = (c + 1 - u0) * t_delta_c
-    elif du < 0:
-        step_c = -1
-        t_delta_c = -1.0 / du
-        t_max_c = (u0 - c) * t_delta_c
-    else:
-        step_c = 0
-        t_delta_c = np.inf
-        t_max_c = np.inf
-    if dv > 0:
-        step_r = 1
-        t_delta_r = 1.0 / dv
-        t_max_r = (r + 1 - v0) * t_delta_r
-    elif dv < 0:
-        step_r = -1
-        t_delta_r = -1.0 / dv
-        t_max_r = (v0 - r) * t_delta_r
-    else:
-        step_r = 0
-        t_delta_r = np.inf
-        t_max_r = np.inf
+    step_c, t_delta_c, t_max_c = axis_walk(u0, c, du)
+    step_r, t_delta_r, t_max_r = axis_walk(v0, r, dv)
     n_steps = abs(ce - c) + abs(re - r)
     out_c[0] = c
     out_r[0] = r
