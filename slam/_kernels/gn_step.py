@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from slam._kernels.interp import interp_point, interp_value_grad_ref
+from slam._kernels.interp import add_normal_row, interp_point, interp_value_grad_ref, symmetrize_upper
 
 __all__ = ["gn_normal_equations", "gn_normal_equations_ref", "gn_iterate", "gn_iterate_ref"]
 
@@ -35,18 +35,8 @@ def gn_normal_equations(prob, grid_meta, pts_robot, pose):
         j1 = gy
         j2 = gx * (-s * px - c * py) + gy * (c * px - s * py)
         cost += r * r
-        g[0] += j0 * r
-        g[1] += j1 * r
-        g[2] += j2 * r
-        H[0, 0] += j0 * j0
-        H[0, 1] += j0 * j1
-        H[0, 2] += j0 * j2
-        H[1, 1] += j1 * j1
-        H[1, 2] += j1 * j2
-        H[2, 2] += j2 * j2
-    H[1, 0] = H[0, 1]
-    H[2, 0] = H[0, 2]
-    H[2, 1] = H[1, 2]
+        add_normal_row(H, g, j0, j1, j2, r)
+    symmetrize_upper(H)
     return H, g, cost
 
 

@@ -12,7 +12,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-__all__ = ["interp_value_grad", "interp_point", "interp_value_grad_ref"]
+__all__ = ["interp_value_grad", "interp_point", "interp_value_grad_ref", "add_normal_row",
+           "symmetrize_upper"]
 
 
 @njit(cache=True)
@@ -34,6 +35,29 @@ def interp_point(prob, ox, oy, res, rows, cols, x, y):
     du = (1.0 - fv) * (p01 - p00) + fv * (p11 - p10)
     dv = (1.0 - fu) * (p10 - p00) + fu * (p11 - p01)
     return m, du / res, dv / res
+
+
+@njit(cache=True)
+def add_normal_row(H, g, j0, j1, j2, r):
+    """Add one residual r with Jacobian row (j0, j1, j2) to the upper triangle of the 3x3
+    Gauss-Newton matrix H = J^T J and to g = J^T r (the scan matchers' inner loop)."""
+    g[0] += j0 * r
+    g[1] += j1 * r
+    g[2] += j2 * r
+    H[0, 0] += j0 * j0
+    H[0, 1] += j0 * j1
+    H[0, 2] += j0 * j2
+    H[1, 1] += j1 * j1
+    H[1, 2] += j1 * j2
+    H[2, 2] += j2 * j2
+
+
+@njit(cache=True)
+def symmetrize_upper(H):
+    """Copy the upper triangle of the 3x3 H into the lower one."""
+    H[1, 0] = H[0, 1]
+    H[2, 0] = H[0, 2]
+    H[2, 1] = H[1, 2]
 
 
 @njit(cache=True)
