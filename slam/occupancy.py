@@ -122,13 +122,15 @@ class LogOddsGrid:
 
     # --- updates ----------------------------------------------------------------------
     def insert_scan(self, sensor_pose, points_world_xy, hit_mask=None, l_occ: float | None = None,
-                    l_free: float | None = None) -> int:
+                    l_free: float | None = None, free_margin: np.ndarray | None = None) -> int:
         """Insert one scan: rays from the sensor to each point.
 
         sensor_pose: (2,) or (3,) world pose of the lidar (only x, y are used);
         points_world_xy: (N, 2) m ray end points; hit_mask: (N,) bool, True where the ray hit
         something (occupied end cell), False for no-return rays (free to the end). Default: all hits.
-        l_occ, l_free: override the grid's update values for this call. Returns the number of cells updated.
+        l_occ, l_free: override the grid's update values for this call. free_margin: None or (N,)
+        m; a hit ray frees space only up to this far short of its end point (the range noise band,
+        see slam._kernels.insert). Returns the number of cells updated.
         """
         o = np.ascontiguousarray(np.asarray(sensor_pose, dtype=np.float64)[:2])
         pts = np.ascontiguousarray(np.asarray(points_world_xy, dtype=np.float64).reshape(-1, 2))
@@ -136,6 +138,8 @@ class LogOddsGrid:
                 else np.ascontiguousarray(np.asarray(hit_mask, dtype=np.bool_).reshape(-1)))
         if len(hits) != len(pts):
             raise ValueError(f"hit_mask has {len(hits)} entries for {len(pts)} points")
+        if free_margin is not None and np.size(free_margin) != len(pts):
+            raise ValueError(f"free_margin has {np.size(free_margin)} entries for {len(pts)} points")
         if len(pts) == 0:
             return 0
         allp = np.vstack([pts, o[None, :]])
@@ -143,7 +147,9 @@ class LogOddsGrid:
         n = insert_rays_inplace(self.logodds, self.meta, o, pts, hits,
                                 self.l_free if l_free is None else float(l_free),
                                 self.l_occ if l_occ is None else float(l_occ),
-                                self.l_min, self.l_max, self.snap_cells)
+                                self.l_min, self.l_max, self.snap_cells,
+                                None if free_margin is None
+                                else np.ascontiguousarray(free_margin, dtype=np.float64).reshape(-1))
         self.version += 1
         return int(n)
 

@@ -11,6 +11,14 @@ higher log-odds just before it (see insert_rays_inplace). A cell hit in this sca
 angles are not eroded by neighbouring beams. Values are clamped to [l_min, l_max]; NaN means
 "never touched" and counts as 0 before the update. Cells outside the grid are skipped.
 
+Optionally (free_margin) a hit ray frees cells only up to free_margin metres short of its end
+point: the inverse sensor model of a range sensor with noise (Thrun, Burgard, Fox,
+"Probabilistic Robotics", Sec. 9.2: cells within the measurement's uncertainty get no update).
+The cells of that band that no other ray frees or hits are marked observed (a never-touched
+cell becomes log-odds 0) and otherwise left unchanged. Without the band, beams that fall short
+of a wall by the range noise clear the wall's front while those that fall long pile up behind
+it, so the mapped wall sits behind the true one, by more the farther it was seen from.
+
 grid_meta: (5,) [ox, oy, resolution, rows, cols]; logodds[row, col], row 0 at the bottom.
 """
 from __future__ import annotations
@@ -21,7 +29,7 @@ from numba import njit
 __all__ = ["insert_rays_inplace", "insert_rays_ref", "axis_walk"]
 
 # marks in the per-call scratch grid
-_UNTOUCHED, _FREED, _HIT = 0, 1, 2
+_UNTOUCHED, _FREED, _HIT, _OBSERVED = 0, 1, 2, 3
 
 
 @njit(cache=True)
@@ -90,14 +98,16 @@ def _value(logodds, r, c, rows, cols):
 
 @njit(cache=True)
 def insert_rays_inplace(logodds, grid_meta, origin_xy, ends_xy, hit_mask, l_free, l_occ, l_min, l_max,
-                        snap_cells=0):
+                        snap_cells=0, free_margin=None):
     """Update `logodds` (rows, cols) in place with the rays origin_xy (2,) -> ends_xy (N, 2) (m).
 
     hit_mask: (N,) bool, True where the ray ended on an obstacle. snap_cells: a hit is moved
     back along its ray, up to this many cells, while the cell before it holds higher log-odds
     (before this scan): range noise past a mapped surface then reinforces the surface instead
-    of thickening the wall behind it; the cells between stay untouched. Returns the number of
-    cells updated.
+    of thickening the wall behind it; the cells between stay untouched. free_margin: None or
+    (N,) m >= 0; a hit ray frees only the cells up to the one holding the point free_margin
+    short of its end, the rest up to the hit is marked observed (module docstring). Returns
+    the number of cells whose value changed or that became observed.
     """
     ox, oy, res = grid_meta[0], grid_meta[1], grid_meta[2]
     rows, cols = int(grid_meta[3]), int(grid_meta[4])
@@ -133,16 +143,43 @@ def insert_rays_inplace(logodds, grid_meta, origin_xy, ends_xy, hit_mask, l_free
         mark[r, c] = _HIT
         _apply(logodds, r, c, l_occ, l_min, l_max)
         n_upd += 1
-    # pass 2: free cells along every ray, up to its hit cell (no-return rays: to the end)
+    # pass 2: free cells along every ray, up to its hit cell (no-return rays: to the end) or,
+    # with a margin, up to the cell holding the point free_margin short of it
+    banded = free_margin is not None
+    band_from = np.full(n, -1, dtype=np.int64)
     for i in range(n):
-        m = _traverse(x0, y0, (ends_xy[i, 0] - ox) / res, (ends_xy[i, 1] - oy) / res, path)
+        ex, ey = (ends_xy[i, 0] - ox) / res, (ends_xy[i, 1] - oy) / res
+        m = _traverse(x0, y0, ex, ey, path)
         last = hit_at[i] - 1 if hit_mask[i] else m - 1
+        if banded and hit_mask[i] and free_margin[i] > 0.0:
+            length = np.hypot(ex - x0, ey - y0) * res
+            f = max(length - free_margin[i], 0.0) / length if length > 0.0 else 0.0
+            # the walk is 4-connected, so the cell holding a point of the segment comes after
+            # as many cells as its Manhattan distance from the start cell
+            k_short = (abs(int(np.floor(x0 + f * (ex - x0))) - int(np.floor(x0)))
+                       + abs(int(np.floor(y0 + f * (ey - y0))) - int(np.floor(y0))))
+            if k_short < last:
+                band_from[i] = k_short + 1
+                last = k_short
         for k in range(last + 1):
             cx, cy = path[k, 0], path[k, 1]
             if 0 <= cy < rows and 0 <= cx < cols and mark[cy, cx] == _UNTOUCHED:
                 mark[cy, cx] = _FREED
                 _apply(logodds, cy, cx, l_free, l_min, l_max)
                 n_upd += 1
+    if banded:
+        # pass 3: the bands, after every ray has freed its cells, so the order of rays does not matter
+        for i in range(n):
+            if band_from[i] < 0:
+                continue
+            _traverse(x0, y0, (ends_xy[i, 0] - ox) / res, (ends_xy[i, 1] - oy) / res, path)
+            for k in range(band_from[i], hit_at[i]):
+                cx, cy = path[k, 0], path[k, 1]
+                if 0 <= cy < rows and 0 <= cx < cols and mark[cy, cx] == _UNTOUCHED:
+                    mark[cy, cx] = _OBSERVED
+                    if logodds[cy, cx] != logodds[cy, cx]:
+                        logodds[cy, cx] = 0.0
+                        n_upd += 1
     return n_upd
 
 
@@ -168,7 +205,7 @@ def _cells_on_segment(x0: float, y0: float, x1: float, y1: float) -> np.ndarray:
 
 
 def insert_rays_ref(logodds, grid_meta, origin_xy, ends_xy, hit_mask, l_free, l_occ, l_min, l_max,
-                    snap_cells=0):
+                    snap_cells=0, free_margin=None):
     """Reference of insert_rays_inplace: returns a new array, input unchanged."""
     out = np.array(logodds, dtype=np.float64, copy=True)
     ox, oy, res, rows, cols = grid_meta
@@ -180,8 +217,9 @@ def insert_rays_ref(logodds, grid_meta, origin_xy, ends_xy, hit_mask, l_free, l_
         return base[r, c] if 0 <= r < rows and 0 <= c < cols else -np.inf
 
     o = ((origin_xy[0] - ox) / res, (origin_xy[1] - oy) / res)
-    hits, frees = set(), set()
-    for (x, y), hit in zip(ends_xy, hit_mask):
+    margins = np.zeros(len(ends_xy)) if free_margin is None else np.asarray(free_margin, dtype=np.float64)
+    hits, frees, observed = set(), set(), set()
+    for (x, y), hit, margin in zip(ends_xy, hit_mask, margins):
         e = ((x - ox) / res, (y - oy) / res)
         cells = [tuple(cr) for cr in _cells_on_segment(o[0], o[1], e[0], e[1])]
         if hit:
@@ -190,9 +228,19 @@ def insert_rays_ref(logodds, grid_meta, origin_xy, ends_xy, hit_mask, l_free, l_
                 k -= 1
             hits.add(cells[k])
             cells = cells[:k]
+            if margin > 0:
+                # the cells up to the one holding the point `margin` metres short of the end
+                length = np.hypot(e[0] - o[0], e[1] - o[1]) * res
+                f = max(length - margin, 0.0) / length if length > 0 else 0.0
+                n_free = len(_cells_on_segment(o[0], o[1], o[0] + f * (e[0] - o[0]), o[1] + f * (e[1] - o[1])))
+                observed.update(cells[n_free:])
+                cells = cells[:n_free]
         frees.update(cells)
     for cells, l in ((hits, l_occ), (frees - hits, l_free)):
         for c, r in cells:
             if 0 <= r < rows and 0 <= c < cols:
                 out[r, c] = np.clip(base[r, c] + l, l_min, l_max)
+    for c, r in observed - hits - frees:
+        if 0 <= r < rows and 0 <= c < cols and np.isnan(out[r, c]):
+            out[r, c] = 0.0
     return out
