@@ -77,9 +77,22 @@ class SubmapsConfig:
     hit_near_range: float = 0.0              # ours: > 0 scales the hit odds by min(1, (this / range)^2)
     min_probability: float = 0.1             # Cartographer's kMinProbability / kMaxProbability clamp
     max_probability: float = 0.9
+    # ours: a hit ray frees space only up to this many range sigmas short of the hit (0 = up to
+    # the hit cell, as Cartographer); the band is marked observed, not free. With the LDS-01's
+    # range noise, free-space updates from the short beams erode a wall's front and leave its
+    # mapped surface behind the true one, more so where it was seen from far: submaps bend,
+    # and scans matched into them drift in heading
+    free_space_margin_sigmas: float = 1.5
+    # the lidar's range noise, 1 sigma = max(range_sigma_min, range_sigma_ratio * range): the
+    # LDS-01 datasheet's +-15 mm below 0.5 m and +-5 % beyond, read as 2-sigma bounds
+    range_sigma_min: float = 0.0075          # m
+    range_sigma_ratio: float = 0.025
 
     def __post_init__(self):
         _positive(self, "num_range_data", "resolution")
+        for n in ("free_space_margin_sigmas", "range_sigma_min", "range_sigma_ratio"):
+            if getattr(self, n) < 0:
+                raise ValueError(f"{n} must be >= 0, got {getattr(self, n)}")
         for n in ("hit_probability", "miss_probability", "min_probability", "max_probability"):
             if not 0.0 < getattr(self, n) < 1.0:
                 raise ValueError(f"{n} must lie in (0, 1), got {getattr(self, n)}")

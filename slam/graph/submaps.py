@@ -44,9 +44,10 @@ class Submap:
         pts = np.vstack([hits_xy, misses_xy]) if self.cfg.insert_free_space else hits_xy
         mask = np.zeros(len(pts), bool)
         mask[:len(hits_xy)] = True
+        margin = self._free_margin(origin_xy, pts, mask)
         near = self.cfg.hit_near_range
         if near <= 0:
-            self.grid.insert_scan(origin_xy, pts, mask)
+            self.grid.insert_scan(origin_xy, pts, mask, free_margin=margin)
         else:
             # Ours: hit odds scaled by min(1, (near / range)^2), the inverse range variance of the
             # LDS-01, in range bands (one insertion each), so far hits smear the walls less.
@@ -58,10 +59,21 @@ class Submap:
                     sel = band == b
                     mid = 0.5 * (_BANDS[b - 1] + min(_BANDS[b] if b < len(_BANDS) else 4.0, 4.0))
                     self.grid.l_occ = l_occ * min(1.0, (near / max(mid, 1e-6)) ** 2)
-                    self.grid.insert_scan(origin_xy, pts[sel], mask[sel])
+                    self.grid.insert_scan(origin_xy, pts[sel], mask[sel],
+                                          free_margin=None if margin is None else margin[sel])
             finally:
                 self.grid.l_occ = l_occ
         self.num_range_data += 1
+
+    def _free_margin(self, origin_xy: np.ndarray, pts: np.ndarray, hit_mask: np.ndarray) -> np.ndarray | None:
+        """(N,) m each ray stops freeing short of its end: free_space_margin_sigmas range sigmas
+        for hits, 0 for no-return rays; None when the margin is off."""
+        k = self.cfg.free_space_margin_sigmas
+        if k <= 0 or not self.cfg.insert_free_space:
+            return None
+        rng = np.hypot(pts[:, 0] - origin_xy[0], pts[:, 1] - origin_xy[1])
+        sigma = np.maximum(self.cfg.range_sigma_min, self.cfg.range_sigma_ratio * rng)
+        return np.where(hit_mask, k * sigma, 0.0)
 
     def known_at(self, xy: np.ndarray) -> np.ndarray:
         """(N,) bool: the cell under each point (N, 2) local frame m has been observed."""

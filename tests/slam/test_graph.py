@@ -94,3 +94,28 @@ def test_wrong_loop_closure_does_not_wreck_result(room_log, opt, robust):
     s.finish()
     t, poses = s.trajectory()
     assert (_ate(t, poses, room_log) < 0.05) == robust
+
+
+def test_submap_free_space_stops_the_range_noise_band_short_of_a_hit():
+    hit = np.array([[3.0, 0.0]])        # a wall 3 m ahead: sigma 7.5 cm at 2.5 % of the range
+    origin = np.zeros(2)
+    cells = {}
+    for k in (0.0, 2.6):
+        s = ActiveSubmaps(SubmapsConfig(free_space_margin_sigmas=k))
+        s.insert(origin, hit, np.zeros((0, 2)))
+        grid = s.all[0].grid
+        xs = np.arange(0.025, 3.0, 0.05)
+        r = np.floor((0.0 - grid.origin[1]) / grid.resolution).astype(int)
+        c = np.floor((xs - grid.origin[0]) / grid.resolution).astype(int)
+        cells[k] = grid.logodds[r, c]
+    # without the margin every cell before the hit is freed; with 2.6 sigma (19.5 cm) the last
+    # free point is at 2.805 m, in the cell [2.80, 2.85): the three cells after it are only
+    # observed (log-odds 0), the rest freed as before
+    assert np.all(cells[0.0] < 0)
+    assert np.all(cells[2.6][:-3] < 0) and np.all(cells[2.6][-3:] == 0.0)
+    np.testing.assert_array_equal(cells[2.6][:-3], cells[0.0][:-3])
+
+
+def test_submap_config_rejects_a_negative_margin():
+    with pytest.raises(ValueError, match="free_space_margin_sigmas"):
+        SubmapsConfig(free_space_margin_sigmas=-1.0)
