@@ -146,7 +146,14 @@ def insert_rays_inplace(logodds, grid_meta, origin_xy, ends_xy, hit_mask, l_free
     # pass 2: free cells along every ray, up to its hit cell (no-return rays: to the end) or,
     # with a margin, up to the cell holding the point free_margin short of it
     banded = free_margin is not None
-    band_from = np.full(n, -1, dtype=np.int64)
+    # band cells, collected here and marked after every ray has freed its cells (pass 3); a
+    # 4-connected walk over a length L crosses at most sqrt(2) L / res + 2 cells
+    per_ray = 0
+    if banded:
+        for i in range(n):
+            per_ray = max(per_ray, int(np.ceil(1.5 * free_margin[i] / res)) + 2)
+    band = np.empty((n * per_ray, 2), dtype=np.int64)
+    n_band = 0
     for i in range(n):
         ex, ey = (ends_xy[i, 0] - ox) / res, (ends_xy[i, 1] - oy) / res
         m = _traverse(x0, y0, ex, ey, path)
@@ -159,7 +166,10 @@ def insert_rays_inplace(logodds, grid_meta, origin_xy, ends_xy, hit_mask, l_free
             k_short = (abs(int(np.floor(x0 + f * (ex - x0))) - int(np.floor(x0)))
                        + abs(int(np.floor(y0 + f * (ey - y0))) - int(np.floor(y0))))
             if k_short < last:
-                band_from[i] = k_short + 1
+                for k in range(k_short + 1, min(last + 1, k_short + 1 + per_ray)):
+                    band[n_band, 0] = path[k, 0]
+                    band[n_band, 1] = path[k, 1]
+                    n_band += 1
                 last = k_short
         for k in range(last + 1):
             cx, cy = path[k, 0], path[k, 1]
@@ -167,19 +177,14 @@ def insert_rays_inplace(logodds, grid_meta, origin_xy, ends_xy, hit_mask, l_free
                 mark[cy, cx] = _FREED
                 _apply(logodds, cy, cx, l_free, l_min, l_max)
                 n_upd += 1
-    if banded:
-        # pass 3: the bands, after every ray has freed its cells, so the order of rays does not matter
-        for i in range(n):
-            if band_from[i] < 0:
-                continue
-            _traverse(x0, y0, (ends_xy[i, 0] - ox) / res, (ends_xy[i, 1] - oy) / res, path)
-            for k in range(band_from[i], hit_at[i]):
-                cx, cy = path[k, 0], path[k, 1]
-                if 0 <= cy < rows and 0 <= cx < cols and mark[cy, cx] == _UNTOUCHED:
-                    mark[cy, cx] = _OBSERVED
-                    if logodds[cy, cx] != logodds[cy, cx]:
-                        logodds[cy, cx] = 0.0
-                        n_upd += 1
+    # pass 3: the bands, after every ray has freed its cells, so the order of rays does not matter
+    for b in range(n_band):
+        cx, cy = band[b, 0], band[b, 1]
+        if 0 <= cy < rows and 0 <= cx < cols and mark[cy, cx] == _UNTOUCHED:
+            mark[cy, cx] = _OBSERVED
+            if logodds[cy, cx] != logodds[cy, cx]:
+                logodds[cy, cx] = 0.0
+                n_upd += 1
     return n_upd
 
 
