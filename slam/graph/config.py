@@ -152,11 +152,24 @@ class ConstraintBuilderConfig:
     min_information_ratio: float = 0.1       # ours: reject matches this degenerate (0 = off)
     ambiguity_radius: float = 0.3            # ours: reject a match when a pose this far (m) from it
     ambiguity_margin: float = 0.02           # scores within this margin of the best (0 radius = off)
+    # ours: reject a match when more than this fraction of its points have space the submap knows
+    # to be free (probability below see_through_free_probability) one submap cell beyond them
+    # along the beam: the scan would see through a surface. This is the far face of a thin wall,
+    # mapped from its other side, that a hit-only score cannot tell from the near face (0 = off)
+    max_see_through_ratio: float = 0.05
+    see_through_free_probability: float = 0.3
     fast_correlative_scan_matcher: FastCorrelativeConfig = field(default_factory=FastCorrelativeConfig)
     ceres_scan_matcher: CeresScanMatcherConfig = field(default_factory=lambda: CeresScanMatcherConfig(
         occupied_space_weight=20.0, translation_weight=10.0, rotation_weight=1.0, max_num_iterations=10))
     loop_closure_adaptive_voxel_filter: AdaptiveVoxelConfig = field(
         default_factory=lambda: AdaptiveVoxelConfig(max_length=0.9, min_num_points=100))
+
+    def __post_init__(self):
+        if not 0.0 <= self.max_see_through_ratio <= 1.0:
+            raise ValueError(f"max_see_through_ratio must lie in [0, 1], got {self.max_see_through_ratio}")
+        if not 0.0 < self.see_through_free_probability < 1.0:
+            raise ValueError(f"see_through_free_probability must lie in (0, 1), "
+                             f"got {self.see_through_free_probability}")
 
 
 @dataclass(frozen=True)

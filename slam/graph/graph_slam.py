@@ -47,7 +47,7 @@ class GraphSlam:
     def update(self, scan: Scan, odom: OdomDelta | None, imu: ImuWindow | None) -> np.ndarray:
         r = self.local.add_scan(scan, odom, imu)
         if r.is_node:
-            self.graph.add_node(r.pose, r.hits, r.inserted_into, r.created, r.finished)
+            self.graph.add_node(r.pose, r.hits, r.inserted_into, r.created, r.finished, r.origin)
             self.node_scans.append((r.origin, r.hits, r.misses))
         self.times.append(scan.t)
         if self.cfg.final_map == "mapper":
@@ -101,4 +101,5 @@ class GraphSlam:
                 "loop_closures": len(self.graph.loops),
                 "loop_closure_attempts": self.graph.builder.attempts,
                 "loop_closures_rejected": self.graph.rejected,
+                "loop_closures_see_through": self.graph.builder.see_through,
                 "optimizations": self.graph.n_optimizations}

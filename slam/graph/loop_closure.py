@@ -8,7 +8,9 @@ loop-closure constraint with the loop_closure weights. Which pairs are tried is 
 submap by a fixed-ratio sampler, as Cartographer's FixedRatioSampler (deterministic).
 Ours: a match whose translation is pinned in one direction only (information ratio below
 min_information_ratio: a straight corridor, where any shift along it scores the same) is
-rejected, since its position along the corridor is a guess.
+rejected, since its position along the corridor is a guess; so is a match through which the
+scan would see into space the submap knows to be free (see_through_ratio: the far faces of
+thin walls, mapped from their other side).
 """
 from __future__ import annotations
 
@@ -22,7 +24,8 @@ from slam.graph.config import ConstraintBuilderConfig
 from slam.graph.scan_matching import FastCorrelativeMatcher, ceres_match
 from slam.graph.submaps import Submap
 
-__all__ = ["FixedRatioSampler", "LoopConstraint", "ConstraintBuilder", "information_ratio"]
+__all__ = ["FixedRatioSampler", "LoopConstraint", "ConstraintBuilder", "information_ratio",
+           "see_through_ratio"]
 
 
 class FixedRatioSampler:
@@ -60,6 +63,7 @@ class ConstraintBuilder:
         self.samplers: dict[int, FixedRatioSampler] = {}
         self.attempts = 0
         self.degenerate = 0
+        self.see_through = 0
 
     def add_finished_submap(self, submap: Submap) -> None:
         """Precompute the branch-and-bound grids of a submap that gets no more scans."""
@@ -69,8 +73,9 @@ class ConstraintBuilder:
         self.samplers[submap.index] = FixedRatioSampler(self.cfg.sampling_ratio)
 
     def compute(self, submap: Submap, submap_global: np.ndarray, node: int, node_global: np.ndarray,
-                points: np.ndarray) -> LoopConstraint | None:
-        """Try one (finished submap, node) pair; points (N, 2) robot frame, filtered."""
+                points: np.ndarray, origin: np.ndarray) -> LoopConstraint | None:
+        """Try one (finished submap, node) pair; points (N, 2) robot frame, filtered, seen from
+        the lidar at origin (2,) robot frame."""
         if np.hypot(*(node_global[:2] - submap_global[:2])) > self.cfg.max_constraint_distance:
             return None
         if not self.samplers[submap.index].pulse():
@@ -89,6 +94,11 @@ class ConstraintBuilder:
             if information_ratio(prob, meta, points, refined) < self.cfg.min_information_ratio:
                 self.degenerate += 1
                 return None
+        if self.cfg.max_see_through_ratio > 0:
+            ratio = see_through_ratio(submap, points, origin, refined, self.cfg.see_through_free_probability)
+            if ratio > self.cfg.max_see_through_ratio:
+                self.see_through += 1
+                return None
         return LoopConstraint(submap.index, node, relative(submap.local_pose, refined), score)
 
 
@@ -100,3 +110,23 @@ def information_ratio(prob: np.ndarray, meta: np.ndarray, points: np.ndarray, po
     info = g[:, 1:].T @ g[:, 1:]
     ev = np.linalg.eigvalsh(info)
     return float(ev[0] / ev[1]) if ev[1] > 0 else 0.0
+
+
+def see_through_ratio(submap: Submap, points: np.ndarray, origin: np.ndarray, pose: np.ndarray,
+                      free_probability: float) -> float:
+    """Fraction of the points (N, 2, robot frame, seen from the lidar at origin (2,)) whose cell
+    one submap cell beyond them along the beam is known free (observed, probability below
+    free_probability) in `submap` with the robot at `pose` (3,, local frame).
+
+    Behind a surface the lidar hit lies the inside of a wall or space nobody saw; space seen
+    free there means the scan is placed on the far face of a thin wall whose other side the
+    submap saw (a hit-only match score rates both faces alike).
+    """
+    d = np.asarray(points, float) - np.asarray(origin, float)[None, :]
+    r = np.hypot(d[:, 0], d[:, 1])
+    keep = r > 1e-9
+    if not keep.any():
+        return 0.0
+    beyond = points[keep] + d[keep] / r[keep, None] * submap.grid.resolution
+    p = submap.probability_at(transform_points(pose, beyond))
+    return float(np.mean(p < free_probability))         # NaN (unknown) compares False

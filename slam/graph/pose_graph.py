@@ -31,6 +31,7 @@ class PoseGraph:
         self.node_local: list[np.ndarray] = []
         self.node_global: list[np.ndarray] = []
         self.node_points: list[np.ndarray] = []     # loop-closure filtered, robot frame
+        self.node_origins: list[np.ndarray] = []    # lidar position, robot frame
         self.node_submaps: list[tuple] = []
         self.loops: list[LoopConstraint] = []
         self.builder = ConstraintBuilder(cfg.constraint_builder)
@@ -41,8 +42,9 @@ class PoseGraph:
         self._loops_at_opt = 0
 
     def add_node(self, local_pose: np.ndarray, hits: np.ndarray, inserted_into: tuple,
-                 created: tuple, finished: tuple) -> int:
-        """Add a node (local pose (3,), hits (N, 2) robot frame); search loops; maybe optimize."""
+                 created: tuple, finished: tuple, origin: np.ndarray | None = None) -> int:
+        """Add a node (local pose (3,), hits (N, 2) robot frame seen from the lidar at origin (2,)
+        robot frame, default the robot's centre); search loops; maybe optimize."""
         for s in created:
             while len(self.submap_global) <= s:
                 self.submap_global.append(compose(self.correction, self.submaps[len(self.submap_global)].local_pose))
@@ -51,6 +53,7 @@ class PoseGraph:
         self.node_global.append(compose(self.correction, local_pose))
         av = self.cfg.constraint_builder.loop_closure_adaptive_voxel_filter
         self.node_points.append(adaptive_voxel_filter(hits, av.max_length, av.min_num_points, av.max_range))
+        self.node_origins.append(np.zeros(2) if origin is None else np.asarray(origin, float)[:2].copy())
         self.node_submaps.append(tuple(inserted_into))
         if self.cfg.enable_loop_closure:
             for s in self.builder.matchers:
@@ -73,7 +76,7 @@ class PoseGraph:
 
     def _try(self, s: int, n: int) -> None:
         c = self.builder.compute(self.submaps[s], self.submap_global[s], n, self.node_global[n],
-                                 self.node_points[n])
+                                 self.node_points[n], self.node_origins[n])
         if c is not None:
             self.loops.append(c)
 

@@ -77,14 +77,19 @@ class Submap:
 
     def known_at(self, xy: np.ndarray) -> np.ndarray:
         """(N,) bool: the cell under each point (N, 2) local frame m has been observed."""
+        return ~np.isnan(self.probability_at(xy))
+
+    def probability_at(self, xy: np.ndarray) -> np.ndarray:
+        """(N,) probability of the cell under each point (N, 2) local frame m; NaN where the
+        cell has never been observed or lies outside the grid."""
         res = self.grid.resolution
         ox, oy = self.grid.origin
         c = np.floor((xy[:, 0] - ox) / res).astype(np.int64)
         r = np.floor((xy[:, 1] - oy) / res).astype(np.int64)
         rows, cols = self.grid.shape
         ok = (r >= 0) & (r < rows) & (c >= 0) & (c < cols)
-        out = np.zeros(len(xy), bool)
-        out[ok] = ~np.isnan(self.grid.logodds[r[ok], c[ok]])
+        out = np.full(len(xy), np.nan)
+        out[ok] = 1.0 / (1.0 + np.exp(-self.grid.logodds[r[ok], c[ok]]))
         return out
 
     def probabilities(self) -> tuple[np.ndarray, np.ndarray]:

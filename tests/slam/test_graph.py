@@ -4,9 +4,9 @@ import pytest
 
 from slam.base import ALGORITHMS, _iter_inputs, load_config, run_algorithm
 from slam.graph import GraphConfig, GraphSlam
-from slam.graph.loop_closure import FixedRatioSampler, LoopConstraint
-from slam.graph.submaps import ActiveSubmaps
-from slam.graph.config import SubmapsConfig
+from slam.graph.loop_closure import ConstraintBuilder, FixedRatioSampler, LoopConstraint, see_through_ratio
+from slam.graph.submaps import ActiveSubmaps, Submap
+from slam.graph.config import ConstraintBuilderConfig, SubmapsConfig
 from slam.pose import interpolate_poses, relative
 from worlds.yamlio import InputError
 from tests.slam.synthlog import box_room_segments, make_log, score, square_route, truth_grid
@@ -119,3 +119,51 @@ def test_submap_free_space_stops_the_range_noise_band_short_of_a_hit():
 def test_submap_config_rejects_a_negative_margin():
     with pytest.raises(ValueError, match="free_space_margin_sigmas"):
         SubmapsConfig(free_space_margin_sigmas=-1.0)
+
+
+# A 0.12 m thin wall between x = 1.02 and x = 1.14, mapped only from its left (from x = 0), and a
+# scan from x = 2 that sees its right face: at the true pose the scan lands on the unmapped right
+# face; 0.12 m to the left it lands on the mapped left face, with free space seen behind it.
+WALL_YS = np.linspace(-0.5, 0.5, 41)
+RIGHT_FACE_SCAN = np.column_stack([np.full(len(WALL_YS), 1.14 - 2.0), WALL_YS])   # robot frame
+TRUE_POSE = np.array([2.0, 0.0, 0.0])
+FAR_FACE_POSE = np.array([1.88, 0.0, 0.0])
+
+
+def _left_face_submap():
+    sub = Submap(0, np.zeros(2), SubmapsConfig(free_space_margin_sigmas=0.0))
+    for y0 in np.linspace(-0.3, 0.3, 30):
+        sub.insert(np.array([0.0, y0]), np.column_stack([np.full(len(WALL_YS), 1.02), WALL_YS]),
+                   np.zeros((0, 2)))
+    return sub
+
+
+def test_see_through_ratio_flags_the_far_face_of_a_thin_wall():
+    sub = _left_face_submap()
+    origin = np.zeros(2)
+    assert see_through_ratio(sub, RIGHT_FACE_SCAN, origin, TRUE_POSE, 0.3) == 0.0
+    assert see_through_ratio(sub, RIGHT_FACE_SCAN, origin, FAR_FACE_POSE, 0.3) > 0.9
+    # nothing behind the points has been seen at all: no evidence against the match
+    assert see_through_ratio(sub, RIGHT_FACE_SCAN + [5.0, 0.0], origin, TRUE_POSE, 0.3) == 0.0
+
+
+@pytest.mark.parametrize("check", [True, False])
+def test_loop_closure_on_the_far_face_of_a_thin_wall_is_rejected(check):
+    sub = _left_face_submap()
+    sub.finished = True
+    # the other rejection tests off: a straight wall pins only x, so they would reject it first
+    cfg = ConstraintBuilderConfig(sampling_ratio=1.0, min_information_ratio=0.0, ambiguity_radius=0.0,
+                                  max_see_through_ratio=0.05 if check else 0.0)
+    builder = ConstraintBuilder(cfg)
+    builder.add_finished_submap(sub)
+    found = builder.compute(sub, sub.local_pose, 0, TRUE_POSE, RIGHT_FACE_SCAN, np.zeros(2))
+    if check:
+        assert found is None and builder.see_through == 1
+    else:
+        # the hit-only score puts the scan on the mapped (left) face, 12 cm from the truth
+        assert found is not None and abs(found.z[0] - FAR_FACE_POSE[0]) < 0.03
+
+
+def test_constraint_builder_config_rejects_a_bad_see_through_ratio():
+    with pytest.raises(ValueError, match="max_see_through_ratio"):
+        ConstraintBuilderConfig(max_see_through_ratio=1.5)
