@@ -52,7 +52,8 @@ def main(argv=None) -> int:
         want = args.worlds.split(",")
         logs = [p for p in logs if p.stem in want]
     rows = []
-    print(f"{'world':12s} {'P':>6s} {'S':>6s} {'ADNN':>6s} {'ATE':>7s} {'end':>7s} {'RTF':>6s} nodes loops")
+    print(f"{'world':12s} {'P':>6s} {'S':>6s} {'ADNN':>6s} {'ATE':>7s} {'end':>7s} {'RTF':>6s} nodes "
+          "loops found/tried, see-through")
     for p in logs:
         log = read_log(p)
         r = run_algorithm("graph", log, config=cfg)
@@ -65,11 +66,13 @@ def main(argv=None) -> int:
         row = {"world": p.stem, "precision": m["precision"], "sensitivity": m["sensitivity"],
                "adnn_cells": m["adnn_cells"], "ate_m": te["ate_m"], "ate_start_m": te["ate_start_m"],
                "end_error_m": end, **{k: r.stats[k] for k in ("realtime_factor", "wall_time_s", "nodes",
-                                                            "loop_closures", "loop_closure_attempts")}}
+                                                            "loop_closures", "loop_closure_attempts",
+                                                            "loop_closures_see_through")}}
         rows.append(row)
         print(f"{p.stem:12s} {row['precision']:6.3f} {row['sensitivity']:6.3f} {row['adnn_cells']:6.3f} "
               f"{row['ate_m']:7.4f} {end:7.4f} {row['realtime_factor']:6.1f} {row['nodes']:5d} "
-              f"{row['loop_closures']}/{row['loop_closure_attempts']}", flush=True)
+              f"{row['loop_closures']}/{row['loop_closure_attempts']}, {row['loop_closures_see_through']}",
+              flush=True)
     if args.json:
         Path(args.json).write_text(json.dumps(rows, indent=1))
     return 0
