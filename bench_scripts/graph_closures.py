@@ -30,7 +30,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from graph_speed import _set  # noqa: E402  (same --set syntax)
+from worlds.yamlio import set_override  # noqa: E402
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -50,12 +50,12 @@ def main(argv: list[str] | None = None) -> int:
     from slam.graph import GraphSlam
     cfg: dict = {}
     for s in args.set:
-        _set(cfg, s)
+        set_override(cfg, s)
     checked = load_config("graph", cfg).pose_graph.constraint_builder
     if args.oracle_filter:
         trans, rot = (float(v) for v in args.oracle_filter.split(","))
         return _oracle_filtered(args, cfg, trans, rot)
-    _set(cfg, "pose_graph.constraint_builder.max_see_through_ratio=0")
+    set_override(cfg, "pose_graph.constraint_builder.max_see_through_ratio=0")
     logs = sorted(Path(args.logs).glob("*.npz"))
     if args.worlds:
         logs = [p for p in logs if p.stem in args.worlds.split(",")]

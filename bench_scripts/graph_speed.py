@@ -18,16 +18,6 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 
-def _set(cfg: dict, dotted: str) -> None:
-    key, value = dotted.split("=", 1)
-    parts = key.split(".")
-    d = cfg
-    for p in parts[:-1]:
-        d = d.setdefault(p, {})
-    import yaml
-    d[parts[-1]] = yaml.safe_load(value)
-
-
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--logs", required=True)
@@ -42,11 +32,12 @@ def main(argv=None) -> int:
     from worlds import load_world, rasterize
     from metrics import score_map, trajectory_error
     import yaml
+    from worlds.yamlio import set_override
     cfg = yaml.safe_load(Path(args.config).read_text()) if args.config else {}
     for s in args.set:
-        _set(cfg, s)
+        set_override(cfg, s)
     if args.no_loop_closure:
-        _set(cfg, "pose_graph.enable_loop_closure=false")
+        set_override(cfg, "pose_graph.enable_loop_closure=false")
     logs = sorted(Path(args.logs).glob("*.npz"))
     if args.worlds:
         want = args.worlds.split(",")

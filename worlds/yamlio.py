@@ -21,8 +21,8 @@ import yaml
 
 _EXPONENT_FLOAT = re.compile(r"^[-+]?(\d+\.?\d*|\.\d+)[eE][-+]?\d+$")
 
-__all__ = ["InputError", "load_yaml", "from_dict", "to_dict", "dump_yaml", "atomic_write_bytes",
-           "atomic_write_text"]
+__all__ = ["InputError", "load_yaml", "from_dict", "to_dict", "dump_yaml", "set_override",
+           "atomic_write_bytes", "atomic_write_text"]
 
 
 class InputError(ValueError):
@@ -156,6 +156,20 @@ def to_dict(obj: Any) -> Any:
     if hasattr(obj, "item") and callable(obj.item):  # numpy scalar
         return obj.item()
     return obj
+
+
+def set_override(data: dict, override: str) -> dict:
+    """Apply one command-line override `key.path=value` to nested plain data, in place: the
+    value is read as YAML (`1e5`, `true`, `[1, 2]`), missing levels are created. Returns data."""
+    if "=" not in override:
+        raise InputError(f"override {override!r}: expected key.path=value")
+    key, value = override.split("=", 1)
+    parts = key.strip().split(".")
+    d = data
+    for p in parts[:-1]:
+        d = d.setdefault(p, {})
+    d[parts[-1]] = yaml.safe_load(value)
+    return data
 
 
 def dump_yaml(data: Any) -> str:

@@ -24,3 +24,15 @@ def test_exponent_without_dot_is_a_number():
 def test_other_strings_are_still_rejected(text):
     with pytest.raises(InputError, match=r"w\.yaml: translation: expected a number"):
         from_dict(Weights, {"translation": text}, where="w.yaml")
+
+
+def test_set_override_reads_the_value_as_yaml_and_creates_levels():
+    from worlds.yamlio import set_override
+    cfg = {"pose_graph": {"optimization_problem": {"huber_scale": 0.1}}}
+    set_override(cfg, "pose_graph.optimization_problem.huber_scale=10")
+    set_override(cfg, "pose_graph.enable_loop_closure=false")
+    set_override(cfg, "trajectory_builder.submaps.resolution=0.1")
+    assert cfg == {"pose_graph": {"optimization_problem": {"huber_scale": 10}, "enable_loop_closure": False},
+                   "trajectory_builder": {"submaps": {"resolution": 0.1}}}
+    with pytest.raises(InputError, match="key.path=value"):
+        set_override(cfg, "huber_scale")
