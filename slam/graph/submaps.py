@@ -75,13 +75,9 @@ class Submap:
         sigma = np.maximum(self.cfg.range_sigma_min, self.cfg.range_sigma_ratio * rng)
         return np.where(hit_mask, k * sigma, 0.0)
 
-    def known_at(self, xy: np.ndarray) -> np.ndarray:
-        """(N,) bool: the cell under each point (N, 2) local frame m has been observed."""
-        return ~np.isnan(self.probability_at(xy))
-
-    def probability_at(self, xy: np.ndarray) -> np.ndarray:
-        """(N,) probability of the cell under each point (N, 2) local frame m; NaN where the
-        cell has never been observed or lies outside the grid."""
+    def _logodds_at(self, xy: np.ndarray) -> np.ndarray:
+        """(N,) log-odds of the cell under each point (N, 2) local frame m; NaN where never
+        observed or outside the grid."""
         res = self.grid.resolution
         ox, oy = self.grid.origin
         c = np.floor((xy[:, 0] - ox) / res).astype(np.int64)
@@ -89,8 +85,17 @@ class Submap:
         rows, cols = self.grid.shape
         ok = (r >= 0) & (r < rows) & (c >= 0) & (c < cols)
         out = np.full(len(xy), np.nan)
-        out[ok] = 1.0 / (1.0 + np.exp(-self.grid.logodds[r[ok], c[ok]]))
+        out[ok] = self.grid.logodds[r[ok], c[ok]]
         return out
+
+    def known_at(self, xy: np.ndarray) -> np.ndarray:
+        """(N,) bool: the cell under each point (N, 2) local frame m has been observed."""
+        return ~np.isnan(self._logodds_at(xy))
+
+    def probability_at(self, xy: np.ndarray) -> np.ndarray:
+        """(N,) probability of the cell under each point (N, 2) local frame m; NaN where the
+        cell has never been observed or lies outside the grid."""
+        return 1.0 / (1.0 + np.exp(-self._logodds_at(xy)))
 
     def probabilities(self) -> tuple[np.ndarray, np.ndarray]:
         """((rows, cols) probabilities with unknown = min_probability, (5,) grid meta)."""
