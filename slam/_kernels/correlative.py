@@ -152,13 +152,14 @@ def best_candidate_ref(grid: np.ndarray, cells: np.ndarray, wx: int, wy: int,
 
 
 @njit(cache=True)
-def bnb_search(grids, cells, wx, wy, min_score, ex_x=0, ex_y=0, ex_r=-1):
+def bnb_search(grids, cells, wx, wy, min_score, ex_x, ex_y, ex_r):
     """Branch and bound over rotations and cell shifts (Hess et al. 2016, Algorithm 3).
 
     grids: from max_grids (depth D = grids.shape[0]-1); cells: (K, P, 2) int32; wx, wy: shift
     windows (|dx| <= wx, |dy| <= wy); min_score: leaves must score above it; ex_x, ex_y, ex_r:
     shifts within ex_r cells (Chebyshev) of (ex_x, ex_y) are excluded (ex_r < 0: none), to
-    find the best match elsewhere (an ambiguity check).
+    find the best match elsewhere (an ambiguity check). No defaults on purpose: numba's fast
+    dispatch does not serve calls that omit arguments (a type inference on every call).
     Returns (k, dx, dy, score); k = -1 when no candidate beats min_score.
     """
     D = grids.shape[0] - 1

@@ -108,12 +108,12 @@ class FastCorrelativeMatcher:
                                  self.cfg.angular_search_window)
         offsets = np.arange(-n_ang, n_ang + 1) * step
         cells = discretize(points, pose, pose[2] + offsets, self.meta)
-        k, dx, dy, score = bnb_search(self.grids, cells, w, w, min_score)
+        k, dx, dy, score = bnb_search(self.grids, cells, w, w, float(min_score), 0, 0, -1)
         if k < 0:
             return None
         if ambiguity_radius > 0:
             r = int(math.ceil(ambiguity_radius / self.meta[2]))
-            k2, *_ = bnb_search(self.grids, cells, w, w, score - ambiguity_margin, dx, dy, r)
+            k2, *_ = bnb_search(self.grids, cells, w, w, float(score - ambiguity_margin), dx, dy, r)
             if k2 >= 0:
                 return None
         res = self.meta[2]

@@ -34,7 +34,7 @@ def test_branch_and_bound_equals_brute_force(seed, depth):
     rng = np.random.default_rng(seed)
     grid, cells, w = _problem(rng, w=5 + seed)
     grids = max_grids(grid, depth)
-    k, dx, dy, s = bnb_search(grids, cells, w, w + 1, 0.0)
+    k, dx, dy, s = bnb_search(grids, cells, w, w + 1, 0.0, 0, 0, -1)
     rk, rdx, rdy, rs = best_candidate_ref(grid, cells, w, w + 1)
     assert (k, dx, dy) == (rk, rdx, rdy)
     assert s == pytest.approx(rs, rel=1e-5)
@@ -44,9 +44,9 @@ def test_branch_and_bound_equals_brute_force(seed, depth):
 def test_branch_and_bound_respects_min_score(rng):
     grid, cells, w = _problem(rng)
     _, _, _, best = best_candidate_ref(grid, cells, w, w)
-    k, *_ = bnb_search(max_grids(grid, 3), cells, w, w, best + 1e-3)
+    k, *_ = bnb_search(max_grids(grid, 3), cells, w, w, best + 1e-3, 0, 0, -1)
     assert k == -1
-    k, *_ = bnb_search(max_grids(grid, 3), cells, w, w, best - 1e-3)
+    k, *_ = bnb_search(max_grids(grid, 3), cells, w, w, best - 1e-3, 0, 0, -1)
     assert k >= 0
 
 
