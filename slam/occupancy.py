@@ -16,6 +16,7 @@ import numpy as np
 
 from worlds.grid import Grid
 from slam._kernels.insert import insert_rays_inplace
+from slam._kernels.prob import logodds_to_prob
 
 __all__ = ["LogOddsGrid", "GridConfig", "logodds"]
 
@@ -156,9 +157,7 @@ class LogOddsGrid:
     # --- views ------------------------------------------------------------------------
     def prob(self, unknown: float = np.nan) -> np.ndarray:
         """(rows, cols) occupancy probabilities; never-touched cells get `unknown` (NaN default)."""
-        p = 1.0 / (1.0 + np.exp(-np.nan_to_num(self.logodds, nan=0.0)))
-        p[np.isnan(self.logodds)] = unknown
-        return p
+        return logodds_to_prob(np.ascontiguousarray(self.logodds, dtype=np.float64), float(unknown))
 
     def to_grid(self, crop: bool = True) -> Grid:
         """The map as a worlds.grid.Grid (NaN unknown), cropped to the touched cells plus one cell."""
