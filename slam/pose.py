@@ -1,13 +1,22 @@
 """SE(2) pose algebra on (3,) or (N, 3) arrays x, y, yaw (yaw wrapped to (-pi, pi])."""
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 __all__ = ["wrap_angle", "compose", "inverse", "relative", "transform_points", "interpolate_poses"]
 
 
+def _wrap_scalar(a: float) -> float:
+    w = (a + math.pi) % (2.0 * math.pi) - math.pi
+    return math.pi if w == -math.pi else w
+
+
 def wrap_angle(a):
     """Angle(s) wrapped to (-pi, pi]."""
+    if isinstance(a, (float, int, np.floating)):   # the SLAMs' per-scan calls: no array round trip
+        return _wrap_scalar(float(a))
     w = np.mod(np.asarray(a, dtype=np.float64) + np.pi, 2 * np.pi) - np.pi
     w = np.where(w == -np.pi, np.pi, w)
     return float(w) if np.ndim(w) == 0 else w
@@ -17,6 +26,10 @@ def compose(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """a (+) b: pose b expressed in frame a, returned in a's parent frame. Broadcasts over rows."""
     a = np.asarray(a, dtype=np.float64)
     b = np.asarray(b, dtype=np.float64)
+    if a.shape == (3,) and b.shape == (3,):       # one pose each: scalar arithmetic is 5x faster
+        c, s = math.cos(a[2]), math.sin(a[2])
+        return np.array([a[0] + c * b[0] - s * b[1], a[1] + s * b[0] + c * b[1],
+                         _wrap_scalar(a[2] + b[2])])
     c, s = np.cos(a[..., 2]), np.sin(a[..., 2])
     x = a[..., 0] + c * b[..., 0] - s * b[..., 1]
     y = a[..., 1] + s * b[..., 0] + c * b[..., 1]
@@ -26,6 +39,9 @@ def compose(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 def inverse(a: np.ndarray) -> np.ndarray:
     """(-) a: the pose whose composition with a is the identity."""
     a = np.asarray(a, dtype=np.float64)
+    if a.shape == (3,):
+        c, s = math.cos(a[2]), math.sin(a[2])
+        return np.array([-c * a[0] - s * a[1], s * a[0] - c * a[1], _wrap_scalar(-a[2])])
     c, s = np.cos(a[..., 2]), np.sin(a[..., 2])
     x = -c * a[..., 0] - s * a[..., 1]
     y = s * a[..., 0] - c * a[..., 1]
