@@ -17,7 +17,8 @@ scipy.sparse.linalg (SuperLU), the Huber loss by iteratively reweighted least sq
 pose graph ordered submaps first, then nodes in time order, has an "arrow" normal matrix:
 nodes meet only their neighbours in time (a narrow band) and the few submaps (the border);
 such a system is solved by a banded Cholesky and the submaps' Schur complement instead
-(`solve_spd`, 5-10x faster than SuperLU on a swirl_l graph, the same solution).
+(`solve_spd`: 2-3x faster than SuperLU on a swirl_l graph of 1900 nodes, the same solution
+to 1e-13).
 `solver="trf"` keeps scipy.optimize.least_squares (method 'trf', LSMR) for comparison.
 """
 from __future__ import annotations
