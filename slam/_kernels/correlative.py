@@ -24,7 +24,34 @@ import numpy as np
 from numba import njit
 
 __all__ = ["max_grids", "max_grids_ref", "bnb_search", "score_candidates", "score_candidates_ref",
-           "best_candidate_ref"]
+           "best_candidate_ref", "discretize_rotations", "discretize_rotations_ref"]
+
+
+@njit(cache=True)
+def discretize_rotations(points, x, y, yaws, ox, oy, res):
+    """(K, N, 2) int32 (col, row) cells of the points (N, 2, robot frame) with the robot at
+    (x, y) and each yaw (K,), on the lattice of origin (ox, oy) and cell size res: the
+    pre-rotated scans every candidate of a correlative search shifts by whole cells."""
+    K = yaws.shape[0]
+    n = points.shape[0]
+    out = np.empty((K, n, 2), np.int32)
+    for k in range(K):
+        c = np.cos(yaws[k])
+        s = np.sin(yaws[k])
+        for p in range(n):
+            px = x + c * points[p, 0] - s * points[p, 1]
+            py = y + s * points[p, 0] + c * points[p, 1]
+            out[k, p, 0] = np.int32(np.floor((px - ox) / res))
+            out[k, p, 1] = np.int32(np.floor((py - oy) / res))
+    return out
+
+
+def discretize_rotations_ref(points, x, y, yaws, ox, oy, res) -> np.ndarray:
+    """Numpy reference of discretize_rotations: all rotations at once by broadcasting."""
+    c, s = np.cos(yaws)[:, None], np.sin(yaws)[:, None]
+    wx = x + c * points[None, :, 0] - s * points[None, :, 1]
+    wy = y + s * points[None, :, 0] + c * points[None, :, 1]
+    return np.stack([np.floor((wx - ox) / res), np.floor((wy - oy) / res)], axis=2).astype(np.int32)
 
 
 @njit(cache=True)
@@ -165,11 +192,16 @@ def bnb_search(grids, cells, wx, wy, min_score, ex_x, ex_y, ex_r):
     D = grids.shape[0] - 1
     pad = (1 << D) - 1
     K = cells.shape[0]
-    step = 1 << D
+    # Start at the coarsest level whose blocks are not all larger than the window: above it
+    # each block has one child in the window and its bound is only looser.
+    h0 = D
+    while h0 > 0 and (1 << (h0 - 1)) >= 2 * max(wx, wy) + 1:
+        h0 -= 1
+    step = 1 << h0
     nx = (2 * wx) // step + 1
     ny = (2 * wy) // step + 1
     n_top = K * nx * ny
-    cap = n_top + 4 * (D + 1) + 8
+    cap = n_top + 4 * (h0 + 1) + 8
     sk = np.empty(cap, np.int64)
     sx = np.empty(cap, np.int64)
     sy = np.empty(cap, np.int64)
@@ -189,7 +221,7 @@ def bnb_search(grids, cells, wx, wy, min_score, ex_x, ex_y, ex_r):
                 tk[m] = k
                 tx[m] = dx
                 ty[m] = dy
-                ts[m] = _score(grids, D, pad, cells, k, dx, dy)
+                ts[m] = _score(grids, h0, pad, cells, k, dx, dy)
                 m += 1
     order = np.argsort(ts)
     top = 0
@@ -198,7 +230,7 @@ def bnb_search(grids, cells, wx, wy, min_score, ex_x, ex_y, ex_r):
         sk[top] = tk[o]
         sx[top] = tx[o]
         sy[top] = ty[o]
-        sh[top] = D
+        sh[top] = h0
         ss[top] = ts[o]
         top += 1
     best_k, best_x, best_y = -1, 0, 0

@@ -16,7 +16,7 @@ import math
 
 import numpy as np
 
-from slam._kernels.correlative import bnb_search, max_grids, score_candidates
+from slam._kernels.correlative import bnb_search, discretize_rotations, max_grids, score_candidates
 from slam._kernels.graph_match import match_lm
 from slam.graph.config import CeresScanMatcherConfig, FastCorrelativeConfig, RealTimeCorrelativeConfig
 
@@ -34,12 +34,9 @@ def angular_step(points: np.ndarray, resolution: float) -> float:
 
 def discretize(points: np.ndarray, pose: np.ndarray, yaws: np.ndarray, meta: np.ndarray) -> np.ndarray:
     """(K, N, 2) int32 (col, row) cells of the points at translation pose[:2] and each yaw (K,)."""
-    c, s = np.cos(yaws)[:, None], np.sin(yaws)[:, None]
-    x = pose[0] + c * points[None, :, 0] - s * points[None, :, 1]
-    y = pose[1] + s * points[None, :, 0] + c * points[None, :, 1]
-    res = meta[2]
-    return np.ascontiguousarray(np.stack([np.floor((x - meta[0]) / res), np.floor((y - meta[1]) / res)],
-                                         axis=2).astype(np.int32))
+    return discretize_rotations(np.ascontiguousarray(points, dtype=np.float64), float(pose[0]), float(pose[1]),
+                                np.ascontiguousarray(yaws, dtype=np.float64), float(meta[0]), float(meta[1]),
+                                float(meta[2]))
 
 
 def _window(points, meta, linear, angular):

@@ -2,7 +2,8 @@
 import numpy as np
 import pytest
 
-from slam._kernels.correlative import (best_candidate_ref, bnb_search, max_grids, max_grids_ref,
+from slam._kernels.correlative import (best_candidate_ref, bnb_search, discretize_rotations,
+                                       discretize_rotations_ref, max_grids, max_grids_ref,
                                        score_candidates, score_candidates_ref)
 
 
@@ -21,6 +22,16 @@ def test_max_grids_matches_reference(rng, depth):
 
 
 @pytest.mark.kernel
+def test_discretize_rotations_matches_reference(rng):
+    pts = rng.normal(0, 2.0, (200, 2))
+    yaws = 0.7 + np.arange(-20, 21) * 0.013
+    args = (pts, 1.234, -0.56, yaws, -3.05, -2.95, 0.05)
+    cells = discretize_rotations(*args)
+    assert cells.dtype == np.int32 and cells.shape == (41, 200, 2)
+    np.testing.assert_array_equal(cells, discretize_rotations_ref(*args))
+
+
+@pytest.mark.kernel
 def test_score_candidates_matches_reference(rng):
     grid, cells, w = _problem(rng)
     np.testing.assert_allclose(score_candidates(grid.astype(np.float64), cells, w, w - 2),
@@ -29,7 +40,7 @@ def test_score_candidates_matches_reference(rng):
 
 @pytest.mark.kernel
 @pytest.mark.parametrize("seed", range(8))
-@pytest.mark.parametrize("depth", [1, 2, 4])
+@pytest.mark.parametrize("depth", [1, 2, 4, 7])   # 7: blocks far larger than the window
 def test_branch_and_bound_equals_brute_force(seed, depth):
     rng = np.random.default_rng(seed)
     grid, cells, w = _problem(rng, w=5 + seed)
