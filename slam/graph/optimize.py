@@ -209,10 +209,11 @@ def _huber(f: np.ndarray, robust_rows: np.ndarray, delta: float) -> tuple[float,
 
 # Minimum degree on A^T + A suits the symmetric normal matrix (COLAMD: 4x the fill-in here).
 _PERMC = "MMD_AT_PLUS_A"
-# solve_spd's arrow path: at most this band (one 3x3 block and its neighbour in time) and
-# this many border unknowns (the submaps of a large run); anything else goes to SuperLU
+# solve_spd's arrow path: at most this band (one 3x3 block and its neighbour in time), and at
+# most this many entries in the dense (band x border) block it solves for (40 MB); anything
+# else goes to SuperLU (a long run with hundreds of submaps)
 _MAX_BAND = 5
-_MAX_BORDER = 900
+_MAX_DENSE = 5_000_000
 
 
 def _arrow_border(A: sp.csc_matrix, band: int) -> int:
@@ -234,7 +235,7 @@ def solve_spd(A: sp.spmatrix, g: np.ndarray) -> np.ndarray:
     A = sp.csc_matrix(A)
     n = A.shape[0]
     k = _arrow_border(A, _MAX_BAND)
-    if k > _MAX_BORDER or n - k < 4 * _MAX_BAND:
+    if (n - k) * (k + 1) > _MAX_DENSE or n - k < 4 * _MAX_BAND:
         return splu(A, permc_spec=_PERMC).solve(g)
     B = A[k:, k:].tocoo()
     upper = B.row <= B.col

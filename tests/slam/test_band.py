@@ -83,3 +83,23 @@ def test_solve_spd_raises_on_an_indefinite_band():
     A[40, 40] = -50.0
     with pytest.raises(LinAlgError):
         solve_spd(sp.csc_matrix(A), np.ones(63))
+
+
+def test_solve_spd_hands_large_borders_to_the_sparse_lu(monkeypatch):
+    import slam.graph.optimize as opt
+    calls = []
+    real = opt.splu
+
+    def spy(*a, **k):
+        calls.append(1)
+        return real(*a, **k)
+
+    monkeypatch.setattr(opt, "splu", spy)
+    rng = np.random.default_rng(9)
+    A = _arrow(rng, 120, 30)
+    g = rng.normal(size=A.shape[0])
+    opt.solve_spd(A, g)
+    assert calls == []                               # the arrow path
+    monkeypatch.setattr(opt, "_MAX_DENSE", 120 * 31 - 1)
+    np.testing.assert_allclose(opt.solve_spd(A, g), spsolve(A, g), rtol=1e-9, atol=1e-12)
+    assert calls == [1]                              # too big a dense block: SuperLU
