@@ -56,9 +56,7 @@ def main(argv: list[str] | None = None) -> int:
         trans, rot = (float(v) for v in args.oracle_filter.split(","))
         return _oracle_filtered(args, cfg, trans, rot)
     set_override(cfg, "pose_graph.constraint_builder.max_see_through_ratio=0")
-    logs = sorted(Path(args.logs).glob("*.npz"))
-    if args.worlds:
-        logs = [p for p in logs if p.stem in args.worlds.split(",")]
+    logs = _logs(args)
     print(f"see-through check: more than {checked.max_see_through_ratio} of the points, "
           f"p < {checked.see_through_free_probability}")
     print(f"{'world':12s} {'matches':>7s} {'good':>5s} {'rejected':>8s} {'false':>5s} {'rejected':>8s} "
@@ -75,6 +73,12 @@ def main(argv: list[str] | None = None) -> int:
         print(f"{p.stem:12s} {len(err):7d} {good.sum():5d} {(good & rejected).sum():8d} {false.sum():5d} "
               f"{(false & rejected).sum():8d} {med[0]:10.3f}, {med[1]:.3f}", flush=True)
     return 0
+
+
+def _logs(args) -> list[Path]:
+    """The WORLD.npz logs of --logs, only those of --worlds when given."""
+    logs = sorted(Path(args.logs).glob("*.npz"))
+    return [p for p in logs if p.stem in args.worlds.split(",")] if args.worlds else logs
 
 
 def _record_matches(slam, free_probability: float) -> list:
@@ -135,9 +139,7 @@ def _oracle_filtered(args, cfg: dict, trans: float, rot_deg: float) -> int:
     from slam.graph import GraphSlam
     from slam.pose import interpolate_poses
     from worlds import load_world, rasterize
-    logs = sorted(Path(args.logs).glob("*.npz"))
-    if args.worlds:
-        logs = [p for p in logs if p.stem in args.worlds.split(",")]
+    logs = _logs(args)
     print(f"closures kept within {trans} m and {rot_deg} deg of the truth")
     print(f"{'world':12s} {'P':>6s} {'S':>6s} {'ATE':>7s} {'end':>7s} kept/found")
     for p in logs:
