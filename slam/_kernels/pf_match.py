@@ -30,7 +30,8 @@ import math
 import numpy as np
 from numba import njit
 
-__all__ = ["PARAMS", "make_params", "extract_patches", "score_and_likelihood", "hill_climb", "proposal_moments",
+__all__ = ["PARAMS", "make_params", "extract_patches", "score_and_likelihood", "score_above", "hill_climb",
+           "proposal_moments",
            "score_and_likelihood_ref", "hill_climb_ref", "proposal_moments_ref"]
 
 PARAMS = ("sigma", "lsigma", "null_likelihood", "fullness", "kernel", "lstep", "astep",
@@ -90,7 +91,51 @@ def extract_patches(tables, pool, grid_meta, boxes, fullness):
 
 # Reordered floating point (no ninf/nnan: `best` starts at inf) is about 10 % faster on the
 # filter's hottest loop; trajectories differ from strict IEEE order by ~1e-14 m.
-@njit(cache=True, fastmath={"nsz", "arcp", "contract", "afn", "reassoc"})
+_FAST = {"nsz", "arcp", "contract", "afn", "reassoc"}
+
+
+@njit(cache=True, fastmath=_FAST, inline="always")
+def _beam_d2(occ, mean, corner, grid_meta, kernel, pose, c, s, hit, free):
+    """Squared distance from one beam's hit point (robot frame, placed by pose with cos c,
+    sin s) to the nearest matching mean hit point in the patch; inf when none matches."""
+    size_r, size_c = occ.shape
+    res = grid_meta[2]
+    ox = grid_meta[0] + corner[1] * res
+    oy = grid_meta[1] + corner[0] * res
+    hx = pose[0] + c * hit[0] - s * hit[1]
+    hy = pose[1] + s * hit[0] + c * hit[1]
+    hc = int(math.floor((hx - ox) / res))
+    hr = int(math.floor((hy - oy) / res))
+    have_free = False
+    dc = 0
+    dr = 0
+    best = np.inf
+    for yy in range(-kernel, kernel + 1):
+        r = hr + yy
+        if r < 0 or r >= size_r:
+            continue
+        for xx in range(-kernel, kernel + 1):
+            cc = hc + xx
+            if cc < 0 or cc >= size_c or occ[r, cc] == 0:
+                continue
+            if not have_free:
+                # the free point's cell offset, needed only once a candidate turns up
+                fx = pose[0] + c * free[0] - s * free[1]
+                fy = pose[1] + s * free[0] + c * free[1]
+                dc = int(math.floor((fx - ox) / res)) - hc
+                dr = int(math.floor((fy - oy) / res)) - hr
+                have_free = True
+            fr = r + dr
+            fc = cc + dc
+            if 0 <= fr < size_r and 0 <= fc < size_c and occ[fr, fc] != 0:
+                continue
+            d2 = (hx - mean[r, cc, 0]) ** 2 + (hy - mean[r, cc, 1]) ** 2
+            if d2 < best:
+                best = d2
+    return best
+
+
+@njit(cache=True, fastmath=_FAST)
 def score_and_likelihood(occ, mean, corner, grid_meta, pose, hits, frees, params):
     """(score, log likelihood) of one robot pose (3,) against one particle's map patch.
 
@@ -99,52 +144,47 @@ def score_and_likelihood(occ, mean, corner, grid_meta, pose, hits, frees, params
     """
     sigma, lsigma, null_l = params[0], params[1], params[2]
     kernel = int(params[4])
-    res = grid_meta[2]
-    ox = grid_meta[0] + corner[1] * res
-    oy = grid_meta[1] + corner[0] * res
-    size_r, size_c = occ.shape
     c = math.cos(pose[2])
     s = math.sin(pose[2])
     score = 0.0
     lik = 0.0
     no_hit = null_l / lsigma
     for k in range(hits.shape[0]):
-        hx = pose[0] + c * hits[k, 0] - s * hits[k, 1]
-        hy = pose[1] + s * hits[k, 0] + c * hits[k, 1]
-        hc = int(math.floor((hx - ox) / res))
-        hr = int(math.floor((hy - oy) / res))
-        have_free = False
-        dc = 0
-        dr = 0
-        best = np.inf
-        for yy in range(-kernel, kernel + 1):
-            r = hr + yy
-            if r < 0 or r >= size_r:
-                continue
-            for xx in range(-kernel, kernel + 1):
-                cc = hc + xx
-                if cc < 0 or cc >= size_c or occ[r, cc] == 0:
-                    continue
-                if not have_free:
-                    # the free point's cell offset, needed only once a candidate turns up
-                    fx = pose[0] + c * frees[k, 0] - s * frees[k, 1]
-                    fy = pose[1] + s * frees[k, 0] + c * frees[k, 1]
-                    dc = int(math.floor((fx - ox) / res)) - hc
-                    dr = int(math.floor((fy - oy) / res)) - hr
-                    have_free = True
-                fr = r + dr
-                fc = cc + dc
-                if 0 <= fr < size_r and 0 <= fc < size_c and occ[fr, fc] != 0:
-                    continue
-                d2 = (hx - mean[r, cc, 0]) ** 2 + (hy - mean[r, cc, 1]) ** 2
-                if d2 < best:
-                    best = d2
+        best = _beam_d2(occ, mean, corner, grid_meta, kernel, pose, c, s, hits[k], frees[k])
         if best < np.inf:
             score += math.exp(-best / sigma)
             lik += -best / lsigma
         else:
             lik += no_hit
     return score, lik
+
+
+# A beam scores at most exp(0) = 1; the slack covers a fast exp that rounds above it.
+_BEAM_MAX = 1.0 + 1e-6
+
+
+@njit(cache=True, fastmath=_FAST)
+def score_above(occ, mean, corner, grid_meta, pose, hits, frees, params, bound):
+    """score_and_likelihood's score when it exceeds `bound`; otherwise some value <= bound,
+    returned as soon as the beams left (at most 1 each) cannot lift the sum above it.
+
+    The hill climb only asks whether a move beats the current score, so most rejected
+    moves stop part way through the scan. A score above the bound is the same sum, in the
+    same order, as score_and_likelihood's.
+    """
+    sigma = params[0]
+    kernel = int(params[4])
+    c = math.cos(pose[2])
+    s = math.sin(pose[2])
+    n = hits.shape[0]
+    score = 0.0
+    for k in range(n):
+        best = _beam_d2(occ, mean, corner, grid_meta, kernel, pose, c, s, hits[k], frees[k])
+        if best < np.inf:
+            score += math.exp(-best / sigma)
+        if score + (n - k - 1) * _BEAM_MAX <= bound:
+            return min(score, bound)
+    return score
 
 
 @njit(cache=True)
@@ -184,7 +224,7 @@ def _climb_one(occ, mean, corner, grid_meta, init, hits, frees, params):
                 trial[2] += adelta
             else:
                 trial[2] -= adelta
-            sc, _ = score_and_likelihood(occ, mean, corner, grid_meta, trial, hits, frees, params)
+            sc = score_above(occ, mean, corner, grid_meta, trial, hits, frees, params, cur_score)
             if sc > cur_score:
                 cur_score = sc
                 best_local[:] = trial

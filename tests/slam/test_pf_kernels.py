@@ -4,7 +4,7 @@ import pytest
 
 from slam._kernels.pf_map import insert_scan_ref, ray_cells, ray_cells_ref
 from slam._kernels.pf_match import (extract_patches, hill_climb, hill_climb_ref, make_params,
-                                    proposal_moments, proposal_moments_ref,
+                                    proposal_moments, proposal_moments_ref, score_above,
                                     score_and_likelihood, score_and_likelihood_ref)
 from slam.pf_maps import TiledMaps
 
@@ -128,3 +128,33 @@ def test_score_likelihood_hill_climb_and_proposal_match_references(seed):
         np.testing.assert_allclose(cov[p], rc, atol=1e-10)
         assert log_eta[p] == pytest.approx(rl, rel=1e-6)
         assert np.all(np.linalg.eigvalsh(cov[p]) >= -1e-15)
+
+
+@pytest.mark.kernel
+@pytest.mark.parametrize("seed", range(3))
+def test_score_above_is_the_score_or_stays_at_or_below_the_bound(seed):
+    rng = np.random.default_rng(seed)
+    maps = TiledMaps(1, np.zeros(2), 2.0, 0.05, tile=8)
+    for _ in range(4):
+        pose = np.r_[rng.uniform(-0.2, 0.2, 2), rng.uniform(-0.1, 0.1)]
+        ends, hit = _room_scan(rng, pose)
+        maps.insert(pose[None, :], ORIGIN, ends, hit)
+    ends, hit = _room_scan(rng, np.zeros(3))
+    hits = np.ascontiguousarray(ends[hit])
+    frees = _frees(hits)
+    r0, c0 = np.floor(-maps.grid_meta[1::-1] / 0.05).astype(np.int64) - 40   # 2 m box on the room
+    boxes = np.array([[r0, c0, 80, 80]])
+    occ, mean, corner = extract_patches(maps.tables, maps.pool, maps.grid_meta, boxes, PARAMS[3])
+    stopped_early = 0
+    for _ in range(20):
+        q = np.r_[rng.uniform(-0.08, 0.08, 2), rng.uniform(-0.06, 0.06)]
+        full, _ = score_and_likelihood(occ[0], mean[0], corner[0], maps.grid_meta, q, hits, frees, PARAMS)
+        for bound in (-1.0, full - 1.0, full - 1e-9, full, full + 1e-9, full + 1.0, 0.9 * len(hits)):
+            got = score_above(occ[0], mean[0], corner[0], maps.grid_meta, q, hits, frees, PARAMS, bound)
+            if full > bound:
+                assert got == pytest.approx(full, rel=1e-12)
+            else:
+                assert got <= bound
+                stopped_early += got < full - 1e-9
+    # the point of it: a bound far above the score ends the sum before the last beam
+    assert stopped_early > 0
