@@ -21,6 +21,7 @@ makes the many evaluations of the hill climbing plain array reads.
 Kernels and references:
   extract_patches + score_and_likelihood(one pose) <-> score_and_likelihood_ref (dense counters)
   hill_climb (all particles)          <-> hill_climb_ref (plain loop over the reference score)
+  grid_likelihoods (proposal grid)    <-> score_and_likelihood at each grid pose
   proposal_moments (all particles)    <-> proposal_moments_ref
 """
 from __future__ import annotations
@@ -31,7 +32,7 @@ import numpy as np
 from numba import njit
 
 __all__ = ["PARAMS", "make_params", "extract_patches", "score_and_likelihood", "score_above", "hill_climb",
-           "proposal_moments",
+           "grid_likelihoods", "proposal_moments",
            "score_and_likelihood_ref", "hill_climb_ref", "proposal_moments_ref"]
 
 PARAMS = ("sigma", "lsigma", "null_likelihood", "fullness", "kernel", "lstep", "astep",
@@ -252,6 +253,98 @@ def hill_climb(occ, mean, corner, grid_meta, poses, hits, frees, params):
     return out, scores
 
 
+@njit(cache=True, fastmath=_FAST, inline="always")
+def _candidates(occ, mean, hr, hc, dr, dc, kernel, cand_x, cand_y):
+    """Mean hit points of the cells in the (2 kernel + 1)^2 window around cell (hr, hc) that
+    are occupied while the cell at offset (dr, dc) from them (the free point's) is not, into
+    cand_x, cand_y in window order; returns their count.
+
+    _beam_d2 walks the same window inline: there the free offset is only computed once a
+    candidate turns up and the nearest distance stays in a register, which keeps the hill
+    climb about 4 % faster than going through this function (whole-process A/B, swirl_s)."""
+    size_r, size_c = occ.shape
+    n = 0
+    for yy in range(-kernel, kernel + 1):
+        r = hr + yy
+        if r < 0 or r >= size_r:
+            continue
+        for xx in range(-kernel, kernel + 1):
+            cc = hc + xx
+            if cc < 0 or cc >= size_c or occ[r, cc] == 0:
+                continue
+            fr = r + dr
+            fc = cc + dc
+            if 0 <= fr < size_r and 0 <= fc < size_c and occ[fr, fc] != 0:
+                continue
+            cand_x[n] = mean[r, cc, 0]
+            cand_y[n] = mean[r, cc, 1]
+            n += 1
+    return n
+
+
+@njit(cache=True, fastmath=_FAST, inline="always")
+def _nearest_d2(hx, hy, cand_x, cand_y, n):
+    """Smallest squared distance from (hx, hy) to the first n candidates; inf when n is 0."""
+    best = np.inf
+    for q in range(n):
+        d2 = (hx - cand_x[q]) ** 2 + (hy - cand_y[q]) ** 2
+        if d2 < best:
+            best = d2
+    return best
+
+
+@njit(cache=True, fastmath=_FAST)
+def grid_likelihoods(occ, mean, corner, grid_meta, pose, nl, ls, na, ast, hits, frees, params, out):
+    """score_and_likelihood's log likelihood at every pose of the proposal grid pose +
+    (ix ls, iy ls, ia ast), |ix|, |iy| <= nl, |ia| <= na, into out[j], j in (ix, iy, ia)
+    order.
+
+    Beam by beam: the grid's translations are a fraction of a cell, so a beam's hit and free
+    cells mostly stay put from one pose to the next, and with them its matching candidates;
+    those are gathered again only when the cells change. Each pose's sum runs over the beams
+    in the same order as score_and_likelihood's.
+    """
+    lsigma, null_l = params[1], params[2]
+    kernel = int(params[4])
+    no_hit = null_l / lsigma
+    res = grid_meta[2]
+    ox = grid_meta[0] + corner[1] * res
+    oy = grid_meta[1] + corner[0] * res
+    cand_x = np.empty((2 * kernel + 1) ** 2)
+    cand_y = np.empty((2 * kernel + 1) ** 2)
+    out[:] = 0.0
+    n_ang = 2 * na + 1
+    for ia in range(-na, na + 1):
+        yaw = pose[2] + ia * ast
+        c = math.cos(yaw)
+        s = math.sin(yaw)
+        for k in range(hits.shape[0]):
+            rhx = c * hits[k, 0] - s * hits[k, 1]
+            rhy = s * hits[k, 0] + c * hits[k, 1]
+            rfx = c * frees[k, 0] - s * frees[k, 1]
+            rfy = s * frees[k, 0] + c * frees[k, 1]
+            key_set = False
+            key_hc = key_hr = key_dc = key_dr = 0
+            n_cand = 0
+            for ix in range(-nl, nl + 1):
+                px = pose[0] + ix * ls
+                for iy in range(-nl, nl + 1):
+                    py = pose[1] + iy * ls
+                    hx = px + rhx
+                    hy = py + rhy
+                    hc = int(math.floor((hx - ox) / res))
+                    hr = int(math.floor((hy - oy) / res))
+                    dc = int(math.floor((px + rfx - ox) / res)) - hc
+                    dr = int(math.floor((py + rfy - oy) / res)) - hr
+                    if not (key_set and hc == key_hc and hr == key_hr and dc == key_dc and dr == key_dr):
+                        key_set = True
+                        key_hc, key_hr, key_dc, key_dr = hc, hr, dc, dr
+                        n_cand = _candidates(occ, mean, hr, hc, dr, dc, kernel, cand_x, cand_y)
+                    best = _nearest_d2(hx, hy, cand_x, cand_y, n_cand)
+                    j = ((ix + nl) * (2 * nl + 1) + iy + nl) * n_ang + ia + na
+                    out[j] += -best / lsigma if best < np.inf else no_hit
+
+
 @njit(cache=True)
 def proposal_moments(occ, mean, corner, grid_meta, poses, prior_mean, prior_std, hits, frees,
                      params):
@@ -274,7 +367,10 @@ def proposal_moments(occ, mean, corner, grid_meta, poses, prior_mean, prior_std,
     log_eta = np.empty(n)
     samples = np.empty((m, 3))
     logt = np.empty(m)
+    lik = np.empty(m)
     for p in range(n):
+        grid_likelihoods(occ[p], mean[p], corner[p], grid_meta, poses[p], nl, ls, na, ast, hits,
+                          frees, params, lik)
         j = 0
         for ix in range(-nl, nl + 1):
             for iy in range(-nl, nl + 1):
@@ -282,15 +378,13 @@ def proposal_moments(occ, mean, corner, grid_meta, poses, prior_mean, prior_std,
                     samples[j, 0] = poses[p, 0] + ix * ls
                     samples[j, 1] = poses[p, 1] + iy * ls
                     samples[j, 2] = poses[p, 2] + ia * ast
-                    _, lik = score_and_likelihood(occ[p], mean[p], corner[p], grid_meta,
-                                                  samples[j], hits, frees, params)
                     lp = 0.0
                     for d in range(3):
                         e = samples[j, d] - prior_mean[p, d]
                         if d == 2:
                             e = (e + math.pi) % (2 * math.pi) - math.pi
                         lp += -0.5 * (e / prior_std[p, d]) ** 2 - math.log(prior_std[p, d])
-                    logt[j] = lik + lp
+                    logt[j] = lik[j] + lp
                     j += 1
         lmax = logt.max()
         wsum = 0.0

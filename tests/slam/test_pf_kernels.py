@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 
 from slam._kernels.pf_map import insert_scan_ref, ray_cells, ray_cells_ref
-from slam._kernels.pf_match import (extract_patches, hill_climb, hill_climb_ref, make_params,
+from slam._kernels.pf_match import (grid_likelihoods, extract_patches, hill_climb, hill_climb_ref, make_params,
                                     proposal_moments, proposal_moments_ref, score_above,
                                     score_and_likelihood, score_and_likelihood_ref)
 from slam.pf_maps import TiledMaps
@@ -130,10 +130,9 @@ def test_score_likelihood_hill_climb_and_proposal_match_references(seed):
         assert np.all(np.linalg.eigvalsh(cov[p]) >= -1e-15)
 
 
-@pytest.mark.kernel
-@pytest.mark.parametrize("seed", range(3))
-def test_score_above_is_the_score_or_stays_at_or_below_the_bound(seed):
-    rng = np.random.default_rng(seed)
+def _room_patch(rng):
+    """One particle's map of the square room after four scans, its 4 m patch around the
+    origin and a fresh scan from there: (grid_meta, occ, mean, corner, hits, frees)."""
     maps = TiledMaps(1, np.zeros(2), 2.0, 0.05, tile=8)
     for _ in range(4):
         pose = np.r_[rng.uniform(-0.2, 0.2, 2), rng.uniform(-0.1, 0.1)]
@@ -141,16 +140,23 @@ def test_score_above_is_the_score_or_stays_at_or_below_the_bound(seed):
         maps.insert(pose[None, :], ORIGIN, ends, hit)
     ends, hit = _room_scan(rng, np.zeros(3))
     hits = np.ascontiguousarray(ends[hit])
-    frees = _frees(hits)
-    r0, c0 = np.floor(-maps.grid_meta[1::-1] / 0.05).astype(np.int64) - 40   # 2 m box on the room
-    boxes = np.array([[r0, c0, 80, 80]])
-    occ, mean, corner = extract_patches(maps.tables, maps.pool, maps.grid_meta, boxes, PARAMS[3])
+    r0, c0 = np.floor(-maps.grid_meta[1::-1] / 0.05).astype(np.int64) - 40
+    occ, mean, corner = extract_patches(maps.tables, maps.pool, maps.grid_meta,
+                                        np.array([[r0, c0, 80, 80]]), PARAMS[3])
+    return maps.grid_meta, occ[0], mean[0], corner[0], hits, _frees(hits)
+
+
+@pytest.mark.kernel
+@pytest.mark.parametrize("seed", range(3))
+def test_score_above_is_the_score_or_stays_at_or_below_the_bound(seed):
+    rng = np.random.default_rng(seed)
+    meta, occ, mean, corner, hits, frees = _room_patch(rng)
     stopped_early = 0
     for _ in range(20):
         q = np.r_[rng.uniform(-0.08, 0.08, 2), rng.uniform(-0.06, 0.06)]
-        full, _ = score_and_likelihood(occ[0], mean[0], corner[0], maps.grid_meta, q, hits, frees, PARAMS)
+        full, _ = score_and_likelihood(occ, mean, corner, meta, q, hits, frees, PARAMS)
         for bound in (-1.0, full - 1.0, full - 1e-9, full, full + 1e-9, full + 1.0, 0.9 * len(hits)):
-            got = score_above(occ[0], mean[0], corner[0], maps.grid_meta, q, hits, frees, PARAMS, bound)
+            got = score_above(occ, mean, corner, meta, q, hits, frees, PARAMS, bound)
             if full > bound:
                 assert got == pytest.approx(full, rel=1e-12)
             else:
@@ -158,3 +164,21 @@ def test_score_above_is_the_score_or_stays_at_or_below_the_bound(seed):
                 stopped_early += got < full - 1e-9
     # the point of it: a bound far above the score ends the sum before the last beam
     assert stopped_early > 0
+
+
+@pytest.mark.kernel
+@pytest.mark.parametrize("seed", range(3))
+def test_grid_likelihoods_equal_one_evaluation_per_pose(seed):
+    # a grid of 3 cm steps crosses cell borders often: the candidates kept from one pose to
+    # the next must be gathered again whenever the hit or the free cell changes
+    rng = np.random.default_rng(seed)
+    meta, occ, mean, corner, hits, frees = _room_patch(rng)
+    nl, ls, na, ast = 2, 0.03, 1, 0.02
+    centre = np.r_[rng.uniform(-0.05, 0.05, 2), rng.uniform(-0.05, 0.05)]
+    got = np.empty((2 * nl + 1) ** 2 * (2 * na + 1))
+    grid_likelihoods(occ, mean, corner, meta, centre, nl, ls, na, ast, hits, frees, PARAMS, got)
+    want = [score_and_likelihood(occ, mean, corner, meta, centre + [ix * ls, iy * ls, ia * ast], hits,
+                                 frees, PARAMS)[1]
+            for ix in range(-nl, nl + 1) for iy in range(-nl, nl + 1) for ia in range(-na, na + 1)]
+    np.testing.assert_allclose(got, want, rtol=1e-9, atol=1e-9)
+    assert np.ptp(got) > 1.0        # the poses differ enough for the likelihoods to differ
