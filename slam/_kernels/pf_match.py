@@ -31,7 +31,7 @@ import math
 import numpy as np
 from numba import njit
 
-__all__ = ["PARAMS", "make_params", "extract_patches", "score_and_likelihood", "score_above", "hill_climb",
+__all__ = ["PARAMS", "make_params", "extract_patches", "score_and_likelihood", "beam_cache", "score_above", "hill_climb",
            "grid_likelihoods", "proposal_moments",
            "score_and_likelihood_ref", "hill_climb_ref", "proposal_moments_ref"]
 
@@ -96,21 +96,25 @@ _FAST = {"nsz", "arcp", "contract", "afn", "reassoc"}
 
 
 @njit(cache=True, fastmath=_FAST, inline="always")
-def _beam_d2(occ, mean, corner, grid_meta, kernel, pose, c, s, hit, free):
-    """Squared distance from one beam's hit point (robot frame, placed by pose with cos c,
-    sin s) to the nearest matching mean hit point in the patch; inf when none matches."""
-    size_r, size_c = occ.shape
-    res = grid_meta[2]
-    ox = grid_meta[0] + corner[1] * res
-    oy = grid_meta[1] + corner[0] * res
+def _beam_cells(ox, oy, res, pose, c, s, hit, free):
+    """A beam placed by pose (cos c, sin s) in a patch with origin (ox, oy): its hit point
+    hx, hy, the hit's cell row, column and the free point's cell offset from it."""
     hx = pose[0] + c * hit[0] - s * hit[1]
     hy = pose[1] + s * hit[0] + c * hit[1]
     hc = int(math.floor((hx - ox) / res))
     hr = int(math.floor((hy - oy) / res))
-    have_free = False
-    dc = 0
-    dr = 0
-    best = np.inf
+    dc = int(math.floor((pose[0] + c * free[0] - s * free[1] - ox) / res)) - hc
+    dr = int(math.floor((pose[1] + s * free[0] + c * free[1] - oy) / res)) - hr
+    return hx, hy, hr, hc, dr, dc
+
+
+@njit(cache=True, fastmath=_FAST, inline="always")
+def _candidates(occ, mean, hr, hc, dr, dc, kernel, cand_x, cand_y):
+    """Mean hit points of the cells in the (2 kernel + 1)^2 window around cell (hr, hc) that
+    are occupied while the cell at offset (dr, dc) from them (the free point's) is not, into
+    cand_x, cand_y in window order; returns their count."""
+    size_r, size_c = occ.shape
+    n = 0
     for yy in range(-kernel, kernel + 1):
         r = hr + yy
         if r < 0 or r >= size_r:
@@ -119,20 +123,24 @@ def _beam_d2(occ, mean, corner, grid_meta, kernel, pose, c, s, hit, free):
             cc = hc + xx
             if cc < 0 or cc >= size_c or occ[r, cc] == 0:
                 continue
-            if not have_free:
-                # the free point's cell offset, needed only once a candidate turns up
-                fx = pose[0] + c * free[0] - s * free[1]
-                fy = pose[1] + s * free[0] + c * free[1]
-                dc = int(math.floor((fx - ox) / res)) - hc
-                dr = int(math.floor((fy - oy) / res)) - hr
-                have_free = True
             fr = r + dr
             fc = cc + dc
             if 0 <= fr < size_r and 0 <= fc < size_c and occ[fr, fc] != 0:
                 continue
-            d2 = (hx - mean[r, cc, 0]) ** 2 + (hy - mean[r, cc, 1]) ** 2
-            if d2 < best:
-                best = d2
+            cand_x[n] = mean[r, cc, 0]
+            cand_y[n] = mean[r, cc, 1]
+            n += 1
+    return n
+
+
+@njit(cache=True, fastmath=_FAST, inline="always")
+def _nearest_d2(hx, hy, cand_x, cand_y, n):
+    """Smallest squared distance from (hx, hy) to the first n candidates; inf when n is 0."""
+    best = np.inf
+    for q in range(n):
+        d2 = (hx - cand_x[q]) ** 2 + (hy - cand_y[q]) ** 2
+        if d2 < best:
+            best = d2
     return best
 
 
@@ -145,13 +153,20 @@ def score_and_likelihood(occ, mean, corner, grid_meta, pose, hits, frees, params
     """
     sigma, lsigma, null_l = params[0], params[1], params[2]
     kernel = int(params[4])
+    res = grid_meta[2]
+    ox = grid_meta[0] + corner[1] * res
+    oy = grid_meta[1] + corner[0] * res
+    cand_x = np.empty((2 * kernel + 1) ** 2)
+    cand_y = np.empty((2 * kernel + 1) ** 2)
     c = math.cos(pose[2])
     s = math.sin(pose[2])
     score = 0.0
     lik = 0.0
     no_hit = null_l / lsigma
     for k in range(hits.shape[0]):
-        best = _beam_d2(occ, mean, corner, grid_meta, kernel, pose, c, s, hits[k], frees[k])
+        hx, hy, hr, hc, dr, dc = _beam_cells(ox, oy, res, pose, c, s, hits[k], frees[k])
+        n = _candidates(occ, mean, hr, hc, dr, dc, kernel, cand_x, cand_y)
+        best = _nearest_d2(hx, hy, cand_x, cand_y, n)
         if best < np.inf:
             score += math.exp(-best / sigma)
             lik += -best / lsigma
@@ -164,23 +179,47 @@ def score_and_likelihood(occ, mean, corner, grid_meta, pose, hits, frees, params
 _BEAM_MAX = 1.0 + 1e-6
 
 
+@njit(cache=True)
+def beam_cache(n_beams, kernel):
+    """Scratch for score_above: per beam the cells it last fell in, keys (n, 4) int64 (hit
+    row, column, free point's row and column offset), and the matching candidates found
+    there, count (n,) int64 (-1: none yet) and x, y (n, (2 kernel + 1)^2)."""
+    width = (2 * kernel + 1) ** 2
+    return (np.zeros((n_beams, 4), np.int64), np.full(n_beams, -1, np.int64),
+            np.empty((n_beams, width)), np.empty((n_beams, width)))
+
+
 @njit(cache=True, fastmath=_FAST)
-def score_above(occ, mean, corner, grid_meta, pose, hits, frees, params, bound):
+def score_above(occ, mean, corner, grid_meta, pose, hits, frees, params, bound, keys, count, cand_x,
+                cand_y):
     """score_and_likelihood's score when it exceeds `bound`; otherwise some value <= bound,
     returned as soon as the beams left (at most 1 each) cannot lift the sum above it.
 
     The hill climb only asks whether a move beats the current score, so most rejected
-    moves stop part way through the scan. A score above the bound is the same sum, in the
-    same order, as score_and_likelihood's.
+    moves stop part way through the scan. Its moves are small, so a beam mostly falls in
+    the cells it fell in at the last pose: its candidates are kept in the beam_cache
+    (keys, count, cand_x, cand_y) and gathered again only when those cells change. A score
+    above the bound is the same sum, in the same order, as score_and_likelihood's.
     """
     sigma = params[0]
     kernel = int(params[4])
+    res = grid_meta[2]
+    ox = grid_meta[0] + corner[1] * res
+    oy = grid_meta[1] + corner[0] * res
     c = math.cos(pose[2])
     s = math.sin(pose[2])
     n = hits.shape[0]
     score = 0.0
     for k in range(n):
-        best = _beam_d2(occ, mean, corner, grid_meta, kernel, pose, c, s, hits[k], frees[k])
+        hx, hy, hr, hc, dr, dc = _beam_cells(ox, oy, res, pose, c, s, hits[k], frees[k])
+        if not (count[k] >= 0 and keys[k, 0] == hr and keys[k, 1] == hc and keys[k, 2] == dr
+                and keys[k, 3] == dc):
+            keys[k, 0] = hr
+            keys[k, 1] = hc
+            keys[k, 2] = dr
+            keys[k, 3] = dc
+            count[k] = _candidates(occ, mean, hr, hc, dr, dc, kernel, cand_x[k], cand_y[k])
+        best = _nearest_d2(hx, hy, cand_x[k], cand_y[k], count[k])
         if best < np.inf:
             score += math.exp(-best / sigma)
         if score + (n - k - 1) * _BEAM_MAX <= bound:
@@ -194,6 +233,7 @@ def _climb_one(occ, mean, corner, grid_meta, init, hits, frees, params):
     ldelta, adelta, iterations = params[5], params[6], int(params[7])
     cur = init.copy()
     cur_score, _ = score_and_likelihood(occ, mean, corner, grid_meta, cur, hits, frees, params)
+    keys, count, cand_x, cand_y = beam_cache(hits.shape[0], int(params[4]))
     best_score = -1.0
     refinement = 0
     trial = np.empty(3)
@@ -225,7 +265,8 @@ def _climb_one(occ, mean, corner, grid_meta, init, hits, frees, params):
                 trial[2] += adelta
             else:
                 trial[2] -= adelta
-            sc = score_above(occ, mean, corner, grid_meta, trial, hits, frees, params, cur_score)
+            sc = score_above(occ, mean, corner, grid_meta, trial, hits, frees, params, cur_score, keys, count,
+                             cand_x, cand_y)
             if sc > cur_score:
                 cur_score = sc
                 best_local[:] = trial
@@ -251,46 +292,6 @@ def hill_climb(occ, mean, corner, grid_meta, poses, hits, frees, params):
         out[p], scores[p] = _climb_one(occ[p], mean[p], corner[p], grid_meta, poses[p], hits,
                                        frees, params)
     return out, scores
-
-
-@njit(cache=True, fastmath=_FAST, inline="always")
-def _candidates(occ, mean, hr, hc, dr, dc, kernel, cand_x, cand_y):
-    """Mean hit points of the cells in the (2 kernel + 1)^2 window around cell (hr, hc) that
-    are occupied while the cell at offset (dr, dc) from them (the free point's) is not, into
-    cand_x, cand_y in window order; returns their count.
-
-    _beam_d2 walks the same window inline: there the free offset is only computed once a
-    candidate turns up and the nearest distance stays in a register, which keeps the hill
-    climb about 4 % faster than going through this function (whole-process A/B, swirl_s)."""
-    size_r, size_c = occ.shape
-    n = 0
-    for yy in range(-kernel, kernel + 1):
-        r = hr + yy
-        if r < 0 or r >= size_r:
-            continue
-        for xx in range(-kernel, kernel + 1):
-            cc = hc + xx
-            if cc < 0 or cc >= size_c or occ[r, cc] == 0:
-                continue
-            fr = r + dr
-            fc = cc + dc
-            if 0 <= fr < size_r and 0 <= fc < size_c and occ[fr, fc] != 0:
-                continue
-            cand_x[n] = mean[r, cc, 0]
-            cand_y[n] = mean[r, cc, 1]
-            n += 1
-    return n
-
-
-@njit(cache=True, fastmath=_FAST, inline="always")
-def _nearest_d2(hx, hy, cand_x, cand_y, n):
-    """Smallest squared distance from (hx, hy) to the first n candidates; inf when n is 0."""
-    best = np.inf
-    for q in range(n):
-        d2 = (hx - cand_x[q]) ** 2 + (hy - cand_y[q]) ** 2
-        if d2 < best:
-            best = d2
-    return best
 
 
 @njit(cache=True, fastmath=_FAST)

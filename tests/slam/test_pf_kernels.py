@@ -4,7 +4,7 @@ import pytest
 
 from slam._kernels.pf_map import insert_scan_ref, ray_cells, ray_cells_ref
 from slam._kernels.pf_match import (grid_likelihoods, extract_patches, hill_climb, hill_climb_ref, make_params,
-                                    proposal_moments, proposal_moments_ref, score_above,
+                                    beam_cache, proposal_moments, proposal_moments_ref, score_above,
                                     score_and_likelihood, score_and_likelihood_ref)
 from slam.pf_maps import TiledMaps
 
@@ -151,12 +151,13 @@ def _room_patch(rng):
 def test_score_above_is_the_score_or_stays_at_or_below_the_bound(seed):
     rng = np.random.default_rng(seed)
     meta, occ, mean, corner, hits, frees = _room_patch(rng)
+    cache = beam_cache(len(hits), int(PARAMS[4]))     # shared by all poses, as in the climb
     stopped_early = 0
     for _ in range(20):
         q = np.r_[rng.uniform(-0.08, 0.08, 2), rng.uniform(-0.06, 0.06)]
         full, _ = score_and_likelihood(occ, mean, corner, meta, q, hits, frees, PARAMS)
         for bound in (-1.0, full - 1.0, full - 1e-9, full, full + 1e-9, full + 1.0, 0.9 * len(hits)):
-            got = score_above(occ, mean, corner, meta, q, hits, frees, PARAMS, bound)
+            got = score_above(occ, mean, corner, meta, q, hits, frees, PARAMS, bound, *cache)
             if full > bound:
                 assert got == pytest.approx(full, rel=1e-12)
             else:
