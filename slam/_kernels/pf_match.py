@@ -31,8 +31,8 @@ import math
 import numpy as np
 from numba import njit
 
-__all__ = ["PARAMS", "make_params", "extract_patches", "score_and_likelihood", "beam_cache", "score_above", "hill_climb",
-           "grid_likelihoods", "proposal_moments",
+__all__ = ["PARAMS", "make_params", "extract_patches", "score_and_likelihood", "beam_cache",
+           "score_above", "hill_climb", "grid_likelihoods", "proposal_moments",
            "score_and_likelihood_ref", "hill_climb_ref", "proposal_moments_ref"]
 
 PARAMS = ("sigma", "lsigma", "null_likelihood", "fullness", "kernel", "lstep", "astep",
@@ -265,8 +265,8 @@ def _climb_one(occ, mean, corner, grid_meta, init, hits, frees, params):
                 trial[2] += adelta
             else:
                 trial[2] -= adelta
-            sc = score_above(occ, mean, corner, grid_meta, trial, hits, frees, params, cur_score, keys, count,
-                             cand_x, cand_y)
+            sc = score_above(occ, mean, corner, grid_meta, trial, hits, frees, params, cur_score,
+                             keys, count, cand_x, cand_y)
             if sc > cur_score:
                 cur_score = sc
                 best_local[:] = trial
@@ -337,7 +337,8 @@ def grid_likelihoods(occ, mean, corner, grid_meta, pose, nl, ls, na, ast, hits, 
                     hr = int(math.floor((hy - oy) / res))
                     dc = int(math.floor((px + rfx - ox) / res)) - hc
                     dr = int(math.floor((py + rfy - oy) / res)) - hr
-                    if not (key_set and hc == key_hc and hr == key_hr and dc == key_dc and dr == key_dr):
+                    if not (key_set and hc == key_hc and hr == key_hr and dc == key_dc
+                            and dr == key_dr):
                         key_set = True
                         key_hc, key_hr, key_dc, key_dr = hc, hr, dc, dr
                         n_cand = _candidates(occ, mean, hr, hc, dr, dc, kernel, cand_x, cand_y)
@@ -371,7 +372,7 @@ def proposal_moments(occ, mean, corner, grid_meta, poses, prior_mean, prior_std,
     lik = np.empty(m)
     for p in range(n):
         grid_likelihoods(occ[p], mean[p], corner[p], grid_meta, poses[p], nl, ls, na, ast, hits,
-                          frees, params, lik)
+                         frees, params, lik)
         j = 0
         for ix in range(-nl, nl + 1):
             for iy in range(-nl, nl + 1):

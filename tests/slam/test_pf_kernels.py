@@ -3,9 +3,10 @@ import numpy as np
 import pytest
 
 from slam._kernels.pf_map import insert_scan_ref, ray_cells, ray_cells_ref
-from slam._kernels.pf_match import (grid_likelihoods, extract_patches, hill_climb, hill_climb_ref, make_params,
-                                    beam_cache, proposal_moments, proposal_moments_ref, score_above,
-                                    score_and_likelihood, score_and_likelihood_ref)
+from slam._kernels.pf_match import (beam_cache, extract_patches, grid_likelihoods, hill_climb,
+                                    hill_climb_ref, make_params, proposal_moments,
+                                    proposal_moments_ref, score_above, score_and_likelihood,
+                                    score_and_likelihood_ref)
 from slam.pf_maps import TiledMaps
 
 PARAMS = make_params(sigma=0.05, lsigma=0.075, null_likelihood=-0.5, fullness=0.3, kernel=1,
@@ -156,7 +157,8 @@ def test_score_above_is_the_score_or_stays_at_or_below_the_bound(seed):
     for _ in range(20):
         q = np.r_[rng.uniform(-0.08, 0.08, 2), rng.uniform(-0.06, 0.06)]
         full, _ = score_and_likelihood(occ, mean, corner, meta, q, hits, frees, PARAMS)
-        for bound in (-1.0, full - 1.0, full - 1e-9, full, full + 1e-9, full + 1.0, 0.9 * len(hits)):
+        for bound in (-1.0, full - 1.0, full - 1e-9, full, full + 1e-9, full + 1.0,
+                      0.9 * len(hits)):
             got = score_above(occ, mean, corner, meta, q, hits, frees, PARAMS, bound, *cache)
             if full > bound:
                 assert got == pytest.approx(full, rel=1e-12)
@@ -178,8 +180,8 @@ def test_grid_likelihoods_equal_one_evaluation_per_pose(seed):
     centre = np.r_[rng.uniform(-0.05, 0.05, 2), rng.uniform(-0.05, 0.05)]
     got = np.empty((2 * nl + 1) ** 2 * (2 * na + 1))
     grid_likelihoods(occ, mean, corner, meta, centre, nl, ls, na, ast, hits, frees, PARAMS, got)
-    want = [score_and_likelihood(occ, mean, corner, meta, centre + [ix * ls, iy * ls, ia * ast], hits,
-                                 frees, PARAMS)[1]
+    want = [score_and_likelihood(occ, mean, corner, meta, centre + [ix * ls, iy * ls, ia * ast],
+                                 hits, frees, PARAMS)[1]
             for ix in range(-nl, nl + 1) for iy in range(-nl, nl + 1) for ia in range(-na, na + 1)]
     np.testing.assert_allclose(got, want, rtol=1e-9, atol=1e-9)
     assert np.ptp(got) > 1.0        # the poses differ enough for the likelihoods to differ
