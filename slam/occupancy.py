@@ -18,7 +18,7 @@ from worlds.grid import Grid
 from slam._kernels.insert import insert_rays_inplace
 from slam._kernels.prob import logodds_to_prob
 
-__all__ = ["LogOddsGrid", "GridConfig", "logodds"]
+__all__ = ["GrowingGrid", "LogOddsGrid", "GridConfig", "logodds"]
 
 
 def logodds(p: float) -> float:
@@ -50,38 +50,32 @@ class GridConfig:
             raise ValueError(f"snap_cells must be >= 0, got {self.snap_cells}")
 
 
-class LogOddsGrid:
-    """A growing log-odds occupancy grid.
+class GrowingGrid:
+    """Cell arrays ("layers") on a fixed lattice that grow in whole blocks as points arrive.
 
-    resolution: m per cell; center: (2,) world x, y the first block is centred on;
-    l_free, l_occ: log-odds added to freed / hit cells; l_min, l_max: clamping bounds;
-    block: growth step in cells (the grid grows by whole blocks, at least `margin` m
-    beyond any inserted point); snap_cells: see slam._kernels.insert (0 = plain insertion).
+    resolution: m per cell; center: (2,) world x, y the first block is centred on; block:
+    growth step in cells (the arrays grow by whole blocks, at least `margin` m beyond any
+    point passed to `ensure`). Subclasses name their layers and fill values in `_layers()`.
     """
 
-    def __init__(self, resolution: float = 0.05, center=(0.0, 0.0), l_free: float = logodds(0.4),
-                 l_occ: float = logodds(0.9), l_min: float = -5.0, l_max: float = 5.0,
-                 block: int = 64, size: float = 8.0, margin: float = 0.5, snap_cells: int = 0):
+    def __init__(self, resolution: float, center=(0.0, 0.0), block: int = 64, size: float = 8.0,
+                 margin: float = 0.5):
         if resolution <= 0:
             raise ValueError(f"resolution must be positive, got {resolution}")
         self.resolution = float(resolution)
-        self.l_free, self.l_occ = float(l_free), float(l_occ)
-        self.l_min, self.l_max = float(l_min), float(l_max)
         self.block = int(block)
-        self.snap_cells = int(snap_cells)
         self.margin = float(margin)
         n = max(self.block, int(math.ceil(size / self.resolution / self.block)) * self.block)
         # integer cell index of the lower-left corner on the global lattice (multiples of res)
         self._i0 = int(math.floor(center[0] / self.resolution)) - n // 2
         self._j0 = int(math.floor(center[1] / self.resolution)) - n // 2
-        self.logodds = np.full((n, n), np.nan)
+        for name, fill, dtype in self._layers():
+            setattr(self, name, np.full((n, n), fill, dtype=dtype))
         self.version = 0  # bumped by every change, for callers caching derived maps
 
-    @classmethod
-    def from_config(cls, cfg: GridConfig, center=(0.0, 0.0), **kw) -> "LogOddsGrid":
-        """A grid with the resolution and update values of `cfg`, first block centred on `center`."""
-        return cls(cfg.resolution, center, logodds(cfg.p_free), logodds(cfg.p_occupied),
-                   cfg.l_min, cfg.l_max, snap_cells=cfg.snap_cells, **kw)
+    def _layers(self) -> tuple:
+        """((attribute name, fill value of new cells, dtype), ...); the first sets `shape`."""
+        raise NotImplementedError
 
     # --- geometry ---------------------------------------------------------------------
     @property
@@ -91,7 +85,7 @@ class LogOddsGrid:
 
     @property
     def shape(self) -> tuple[int, int]:
-        return self.logodds.shape
+        return getattr(self, self._layers()[0][0]).shape
 
     @property
     def meta(self) -> np.ndarray:
@@ -113,13 +107,41 @@ class LogOddsGrid:
         add_t = max(0, -(-(hi_j - (self._j0 + rows)) // b)) * b
         if not (add_l or add_b or add_r or add_t):
             return False
-        new = np.full((rows + add_b + add_t, cols + add_l + add_r), np.nan)
-        new[add_b:add_b + rows, add_l:add_l + cols] = self.logodds
-        self.logodds = new
+        for name, fill, dtype in self._layers():
+            new = np.full((rows + add_b + add_t, cols + add_l + add_r), fill, dtype=dtype)
+            new[add_b:add_b + rows, add_l:add_l + cols] = getattr(self, name)
+            setattr(self, name, new)
         self._i0 -= add_l
         self._j0 -= add_b
         self.version += 1
         return True
+
+
+class LogOddsGrid(GrowingGrid):
+    """A growing log-odds occupancy grid.
+
+    resolution: m per cell; center: (2,) world x, y the first block is centred on;
+    l_free, l_occ: log-odds added to freed / hit cells; l_min, l_max: clamping bounds;
+    block: growth step in cells (the grid grows by whole blocks, at least `margin` m
+    beyond any inserted point); snap_cells: see slam._kernels.insert (0 = plain insertion).
+    """
+
+    def __init__(self, resolution: float = 0.05, center=(0.0, 0.0), l_free: float = logodds(0.4),
+                 l_occ: float = logodds(0.9), l_min: float = -5.0, l_max: float = 5.0,
+                 block: int = 64, size: float = 8.0, margin: float = 0.5, snap_cells: int = 0):
+        self.l_free, self.l_occ = float(l_free), float(l_occ)
+        self.l_min, self.l_max = float(l_min), float(l_max)
+        self.snap_cells = int(snap_cells)
+        super().__init__(resolution, center, block, size, margin)
+
+    def _layers(self) -> tuple:
+        return (("logodds", np.nan, np.float64),)
+
+    @classmethod
+    def from_config(cls, cfg: GridConfig, center=(0.0, 0.0), **kw) -> "LogOddsGrid":
+        """A grid with the resolution and update values of `cfg`, first block centred on `center`."""
+        return cls(cfg.resolution, center, logodds(cfg.p_free), logodds(cfg.p_occupied),
+                   cfg.l_min, cfg.l_max, snap_cells=cfg.snap_cells, **kw)
 
     # --- updates ----------------------------------------------------------------------
     def insert_scan(self, sensor_pose, points_world_xy, hit_mask=None, l_occ: float | None = None,
