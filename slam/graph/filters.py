@@ -6,25 +6,43 @@ from __future__ import annotations
 
 import numpy as np
 
-from slam._kernels.voxel import adaptive_voxel_filter_kernel, voxel_filter_kernel
+from slam._kernels.voxel import MINSTD_A, MINSTD_M, adaptive_voxel_filter_kernel, voxel_filter_kernel
 
 __all__ = ["voxel_filter", "adaptive_voxel_filter", "voxel_filter_ref", "adaptive_voxel_filter_ref"]
 
 
-def voxel_filter(points: np.ndarray, size: float) -> np.ndarray:
-    """(N, 2) m -> the first point of each occupied voxel of `size` m, in input order."""
-    return voxel_filter_kernel(np.ascontiguousarray(points, dtype=np.float64).reshape(-1, 2), float(size))
+def voxel_filter(points: np.ndarray, size: float, randomized: bool = False) -> np.ndarray:
+    """(N, 2) m -> one point of each occupied voxel of `size` m, in input order: the first, or
+    (randomized) one drawn uniformly and reproducibly (see voxel_filter_ref)."""
+    return voxel_filter_kernel(np.ascontiguousarray(points, dtype=np.float64).reshape(-1, 2), float(size),
+                               bool(randomized))
 
 
 def adaptive_voxel_filter(points: np.ndarray, max_length: float, min_num_points: int,
-                          max_range: float) -> np.ndarray:
+                          max_range: float, randomized: bool = False) -> np.ndarray:
     """Cartographer's AdaptiveVoxelFilter (see adaptive_voxel_filter_ref)."""
     return adaptive_voxel_filter_kernel(np.ascontiguousarray(points, dtype=np.float64).reshape(-1, 2),
-                                        float(max_length), int(min_num_points), float(max_range))
+                                        float(max_length), int(min_num_points), float(max_range),
+                                        bool(randomized))
 
 
-def voxel_filter_ref(points: np.ndarray, size: float) -> np.ndarray:
-    """(N, 2) m -> the first point of each occupied voxel of `size` m, in input order."""
+def _minstd_keys_ref(n: int) -> np.ndarray:
+    keys = np.empty(n, np.int64)
+    x = 1
+    for i in range(n):
+        x = (x * MINSTD_A) % MINSTD_M
+        keys[i] = x
+    return keys
+
+
+def voxel_filter_ref(points: np.ndarray, size: float, randomized: bool = False) -> np.ndarray:
+    """(N, 2) m -> one point of each occupied voxel of `size` m, in input order.
+
+    Not randomized: the first point of the voxel. Randomized (Cartographer's
+    RandomizedVoxelFilter): the point with the smallest key of the minimal standard generator
+    started at 1, a uniform draw among the voxel's points that does not favour the first
+    beams of a scan (keeping the first point shifts every kept point toward the start of the
+    sweep, a small rotation of the whole scan)."""
     points = np.asarray(points, dtype=np.float64).reshape(-1, 2)
     if len(points) == 0 or size <= 0:
         return points
@@ -32,12 +50,16 @@ def voxel_filter_ref(points: np.ndarray, size: float) -> np.ndarray:
     keys -= keys.min(axis=0)
     # one integer per voxel: 1-D unique is much faster than unique over rows
     flat = keys[:, 0] * (int(keys[:, 1].max()) + 1) + keys[:, 1]
-    _, first = np.unique(flat, return_index=True)
-    return points[np.sort(first)]
+    if not randomized:
+        _, first = np.unique(flat, return_index=True)
+        return points[np.sort(first)]
+    order = np.lexsort((_minstd_keys_ref(len(points)), flat))
+    lead = np.r_[True, flat[order[1:]] != flat[order[:-1]]]
+    return points[np.sort(order[lead])]
 
 
 def adaptive_voxel_filter_ref(points: np.ndarray, max_length: float, min_num_points: int,
-                              max_range: float) -> np.ndarray:
+                              max_range: float, randomized: bool = False) -> np.ndarray:
     """Cartographer's AdaptiveVoxelFilter: the largest voxel size <= max_length that keeps at
     least min_num_points points (bisection over the size), after dropping points beyond
     max_range (m). Few points in, all of them out."""
@@ -45,13 +67,13 @@ def adaptive_voxel_filter_ref(points: np.ndarray, max_length: float, min_num_poi
     points = points[np.hypot(points[:, 0], points[:, 1]) <= max_range]
     if len(points) <= min_num_points:
         return points
-    result = voxel_filter_ref(points, max_length)
+    result = voxel_filter_ref(points, max_length, randomized)
     if len(result) >= min_num_points:
         return result
     hi, lo = max_length, max_length / 2
     # Halve until enough points survive, then bisect between the two sizes (as Cartographer).
     while lo > 1e-3:
-        cand = voxel_filter_ref(points, lo)
+        cand = voxel_filter_ref(points, lo, randomized)
         if len(cand) >= min_num_points:
             result = cand
             break
@@ -60,7 +82,7 @@ def adaptive_voxel_filter_ref(points: np.ndarray, max_length: float, min_num_poi
         return points
     for _ in range(5):
         mid = 0.5 * (lo + hi)
-        cand = voxel_filter_ref(points, mid)
+        cand = voxel_filter_ref(points, mid, randomized)
         if len(cand) >= min_num_points:
             result, lo = cand, mid
         else:
