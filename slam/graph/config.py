@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 
 from slam.mapper import MapperConfig
 
-__all__ = ["GraphConfig", "LocalConfig", "GlobalConfig", "MotionFilterConfig", "SubmapsConfig",
+__all__ = ["GraphConfig", "LocalConfig", "GlobalConfig", "MotionFilterConfig", "SubmapsConfig", "TsdfInserterConfig",
            "RealTimeCorrelativeConfig", "CeresScanMatcherConfig", "FastCorrelativeConfig",
            "ConstraintBuilderConfig", "OptimizationConfig", "AdaptiveVoxelConfig"]
 
@@ -66,11 +66,50 @@ class CeresScanMatcherConfig:
 
 
 @dataclass(frozen=True)
+class TsdfInserterConfig:
+    """TRAJECTORY_BUILDER_2D.submaps.range_data_inserter.tsdf_range_data_inserter (TSDF submaps;
+    slam/graph/tsdf.py). Not implemented: update_free_space (false, as Cartographer's default)
+    and update_weight_range_exponent (0, its default)."""
+
+    # ours 0.1 (Cartographer 0.3): the matcher's residual is tsd / truncation, so the band's
+    # slope sets how hard the scan pulls against the odometry prior; at 0.3 m the loop world's
+    # 0.55 m-wide lanes drifted 2 cm sideways (P 0.74), at 0.1 m they hold (0.92)
+    truncation_distance: float = 0.1         # m: cells this far before and behind a hit, along its ray
+    maximum_weight: float = 10.0             # a cell's summed weight is capped here, so old views fade
+    # ours 10 (Cartographer 4): with the LDS-01's range noise, normals from two neighbours a
+    # side tilt by degrees near the robot, and the projected distances with them (the matched
+    # heading then drifts, +0.55 deg mean on the loop world); five a side hold it to ~0.05 deg
+    num_normal_samples: int = 10             # normal_estimation_options.num_normal_samples
+    sample_radius: float = 0.5               # normal_estimation_options.sample_radius, m: farther
+                                             # neighbours end the sample window
+    project_sdf_distance_to_scan_normal: bool = True   # distance along the normal (false: along the ray)
+    # Gaussian kernels on an update's weight: of the angle between normal and ray, and of the
+    # signed distance of the cell from the hit
+    update_weight_angle_scan_normal_to_ray_kernel_bandwidth: float = 0.5   # rad; 0 = off
+    update_weight_distance_cell_to_hit_kernel_bandwidth: float = 0.5       # m; 0 = off
+
+    def __post_init__(self):
+        _positive(self, "truncation_distance", "maximum_weight", "num_normal_samples", "sample_radius")
+        for n in ("update_weight_angle_scan_normal_to_ray_kernel_bandwidth",
+                  "update_weight_distance_cell_to_hit_kernel_bandwidth"):
+            if getattr(self, n) < 0:
+                raise ValueError(f"{n} must be >= 0, got {getattr(self, n)}")
+
+
+@dataclass(frozen=True)
 class SubmapsConfig:
-    """TRAJECTORY_BUILDER_2D.submaps: probability-grid submaps, two active at a time."""
+    """TRAJECTORY_BUILDER_2D.submaps: TSDF or probability-grid submaps, two active at a time."""
 
     num_range_data: int = 90
     resolution: float = 0.05                 # grid_options_2d.resolution, m
+    # grid_options_2d.grid_type: "tsdf" (ours as default; Cartographer's TSDF option) or
+    # "probability_grid" (Cartographer's default). The probability grid puts a wall at the
+    # centres of its hit cells, up to half a cell off, and its matches carry that bias: with the
+    # submap built at the true poses, a scan matched from its true pose lands 10-14 mm behind
+    # it and 0.1-0.3 deg off (realistic noise, seed 0, bench_scripts/matcher_bias.py)
+    grid_type: str = "tsdf"
+    tsdf: TsdfInserterConfig = field(default_factory=TsdfInserterConfig)
+    # probability_grid only:
     hit_probability: float = 0.55            # range_data_inserter.probability_grid_inserter_options_2d
     miss_probability: float = 0.49
     insert_free_space: bool = True
@@ -90,6 +129,8 @@ class SubmapsConfig:
 
     def __post_init__(self):
         _positive(self, "num_range_data", "resolution")
+        if self.grid_type not in ("tsdf", "probability_grid"):
+            raise ValueError(f"grid_type must be 'tsdf' or 'probability_grid', got {self.grid_type!r}")
         for n in ("free_space_margin_sigmas", "range_sigma_min", "range_sigma_ratio"):
             if getattr(self, n) < 0:
                 raise ValueError(f"{n} must be >= 0, got {getattr(self, n)}")
@@ -106,6 +147,10 @@ class LocalConfig:
     max_range: float = 3.5                   # TB3
     missing_data_ray_length: float = 3.0     # TB3; no-return beams free space up to this range
     voxel_filter_size: float = 0.025
+    # ours, a switch: Cartographer's voxel filters keep a random point of each voxel
+    # (RandomizedVoxelFilter); false keeps the first, which favours the first beams of the
+    # sweep and turns every matched scan slightly (corridor: +0.15 -> +0.08 deg, matcher_bias.py)
+    randomized_voxel_filter: bool = True
     use_imu_data: bool = True                # TB3: yaw rate from the gyro in the extrapolator
     use_odometry: bool = True                # cartographer_ros options.use_odometry (TB3: false
                                              # with the LDS only; the simulated robot has wheels)
@@ -176,11 +221,11 @@ class ConstraintBuilderConfig:
 class OptimizationConfig:
     """POSE_GRAPH.optimization_problem: sparse pose adjustment."""
 
-    # Ours 0.1 (Cartographer 1e1): with the converged sparse solver, Huber at 10 lets the
-    # hundreds of slightly biased loop closures on these blurred (LDS-01) submaps bend the
-    # trajectory (loop P 0.99 -> 0.94); at 0.1 (9 um of translation at the closure weight)
-    # every closure pulls with a capped, L1-like force, a consensus of the closures.
-    huber_scale: float = 1e-1
+    # Ours 1 (Cartographer 1e1). On probability-grid submaps the closures were biased by 1-3 cm
+    # and 0.3-0.5 deg and only 0.1 kept them from bending the trajectory; on TSDF submaps they
+    # are precise enough to act: 1 gives the best maps on the seed-0, 1 and 2 logs (seed-1 loop
+    # P 0.78 at 0.1, 0.99 at 1), 10 lets the remaining bias bend swirl_s and swirl_m.
+    huber_scale: float = 1.0
     # At 1e5 the chain of consecutive nodes is so stiff that Huber-capped loop closures hardly
     # move it; 1e3 lets them act, but the imprecise closures on these blurred (LDS-01) submaps
     # then cost more than they gain (swirl_s P 0.995 -> 0.88), so Cartographer's value stays.
@@ -219,9 +264,10 @@ class GraphConfig:
     output_map: MapperConfig = field(default_factory=MapperConfig)  # ours: used by final_map "mapper"
     map_near_range: float = 0.5              # ours, sharpened: rays up to this range weigh 1
     map_suppress_ratio: float = 0.4          # ours, sharpened: 3x3 non-maximum suppression ratio
-    map_max_range: float = 0.0               # ours: hits farther than this (m) from the lidar are
-                                             # left out of the final map (0 = all); the LDS-01's
-                                             # error grows with range (5 % beyond 0.5 m)
+    map_max_range: float = 2.0               # ours: hits farther than this (m) from the lidar are
+                                             # left out of the final map (0 = all): the LDS-01's
+                                             # error grows with range (5 % beyond 0.5 m); 2 m as
+                                             # the shared output map (slam.mapper) the oracle uses
 
     def __post_init__(self):
         if self.final_map not in ("probability", "sharpened", "mapper"):

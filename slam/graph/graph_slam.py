@@ -37,7 +37,8 @@ class GraphSlam:
         self.cfg = cfg
         self.rng = rng                        # unused: the algorithm is deterministic
         self.local = LocalSlam(cfg.trajectory_builder, start)
-        self.graph = PoseGraph(cfg.pose_graph, self.local.submaps.all)
+        self.graph = PoseGraph(cfg.pose_graph, self.local.submaps.all,
+                               cfg.trajectory_builder.randomized_voxel_filter)
         self.times: list[float] = []
         self.scan_local: list[np.ndarray] = []
         self.scan_node: list[int] = []

@@ -102,16 +102,18 @@ class LocalSlam:
         """Match one scan and insert it if it passes the motion filter."""
         pred, twist = self._predict(scan, odom, imu)
         sp = preprocess(scan, self.pre, twist)
-        hits = voxel_filter(sp.points, self.cfg.voxel_filter_size)
+        randomized = self.cfg.randomized_voxel_filter
+        hits = voxel_filter(sp.points, self.cfg.voxel_filter_size, randomized)
         av = self.cfg.adaptive_voxel_filter
-        match_pts = adaptive_voxel_filter(hits, av.max_length, av.min_num_points, av.max_range)
+        match_pts = adaptive_voxel_filter(hits, av.max_length, av.min_num_points, av.max_range, randomized)
         submap = self.submaps.matching_submap()
         pose = pred
         if submap is not None and len(match_pts) >= 3:
             prob, meta = submap.probabilities()
             start = pred
             if self.cfg.use_online_correlative_scan_matching:
-                start = real_time_correlative_match(prob, meta, match_pts, pred,
+                search, _ = submap.search_grid()
+                start = real_time_correlative_match(search, meta, match_pts, pred,
                                                     self.cfg.real_time_correlative_scan_matcher)
             w = range_weights(match_pts, self.cfg.match_near_range)
             if self.cfg.ignore_unknown_points:

@@ -67,7 +67,7 @@ class ConstraintBuilder:
 
     def add_finished_submap(self, submap: Submap) -> None:
         """Precompute the branch-and-bound grids of a submap that gets no more scans."""
-        prob, meta = submap.probabilities()
+        prob, meta = submap.search_grid()
         self.matchers[submap.index] = FastCorrelativeMatcher(prob, meta,
                                                              self.cfg.fast_correlative_scan_matcher)
         self.samplers[submap.index] = FixedRatioSampler(self.cfg.sampling_ratio)

@@ -24,8 +24,9 @@ __all__ = ["PoseGraph"]
 class PoseGraph:
     """Pose graph over nodes (kept scans) and submaps."""
 
-    def __init__(self, cfg: GlobalConfig, submaps: list[Submap]):
+    def __init__(self, cfg: GlobalConfig, submaps: list[Submap], randomized_voxel_filter: bool = False):
         self.cfg = cfg
+        self.randomized_voxel_filter = randomized_voxel_filter  # for the loop-closure point filter
         self.submaps = submaps                      # shared with the local SLAM's ActiveSubmaps
         self.submap_global: list[np.ndarray] = []
         self.node_local: list[np.ndarray] = []
@@ -52,7 +53,8 @@ class PoseGraph:
         self.node_local.append(np.asarray(local_pose, float).copy())
         self.node_global.append(compose(self.correction, local_pose))
         av = self.cfg.constraint_builder.loop_closure_adaptive_voxel_filter
-        self.node_points.append(adaptive_voxel_filter(hits, av.max_length, av.min_num_points, av.max_range))
+        self.node_points.append(adaptive_voxel_filter(hits, av.max_length, av.min_num_points, av.max_range,
+                                                     self.randomized_voxel_filter))
         self.node_origins.append(np.zeros(2) if origin is None else np.asarray(origin, float)[:2].copy())
         self.node_submaps.append(tuple(inserted_into))
         if self.cfg.enable_loop_closure:

@@ -1,10 +1,11 @@
-"""Submaps of the local SLAM: probability grids of a fixed number of scans, two active.
+"""Submaps of the local SLAM: grids of a fixed number of scans, two active.
 
 As Cartographer's ActiveSubmaps2D: every scan kept by the motion filter goes into both active
 submaps; when the newer one has num_range_data scans a new submap starts at the current
 pose and the older one, then holding 2 * num_range_data scans, is finished (no more
 insertions; the global SLAM searches it for loop closures). A submap's frame has the
-translation of its first scan and no rotation.
+translation of its first scan and no rotation. Submap is the probability grid; TSDF submaps
+(SubmapsConfig.grid_type "tsdf") are slam.graph.tsdf.TsdfSubmap, with the same interface.
 """
 from __future__ import annotations
 
@@ -12,8 +13,9 @@ import numpy as np
 
 from slam.occupancy import LogOddsGrid, logodds
 from slam.graph.config import SubmapsConfig
+from slam.graph.tsdf import TsdfSubmap
 
-__all__ = ["Submap", "ActiveSubmaps"]
+__all__ = ["Submap", "ActiveSubmaps", "TsdfSubmap"]
 
 _BANDS = np.array([0.0, 1.0, 1.5, 2.0, 2.5, 3.0])
 
@@ -105,6 +107,10 @@ class Submap:
             self._cache = (self.grid.version, prob)
         return prob, self.grid.meta
 
+    def search_grid(self) -> tuple[np.ndarray, np.ndarray]:
+        """The grid the correlative searches score: the probabilities."""
+        return self.probabilities()
+
 
 class ActiveSubmaps:
     """The two submaps scans are inserted into (Cartographer's ActiveSubmaps2D)."""
@@ -135,7 +141,8 @@ class ActiveSubmaps:
         return inserted, created, finished
 
     def _add(self, origin_xy) -> int:
-        s = Submap(len(self.all), np.asarray(origin_xy, float), self.cfg)
+        kind = TsdfSubmap if self.cfg.grid_type == "tsdf" else Submap
+        s = kind(len(self.all), np.asarray(origin_xy, float), self.cfg)
         self.all.append(s)
         self.active.append(s)
         return s.index

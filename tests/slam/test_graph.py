@@ -101,7 +101,7 @@ def test_submap_free_space_stops_the_range_noise_band_short_of_a_hit():
     origin = np.zeros(2)
     cells = {}
     for k in (0.0, 2.6):
-        s = ActiveSubmaps(SubmapsConfig(free_space_margin_sigmas=k))
+        s = ActiveSubmaps(SubmapsConfig(grid_type="probability_grid", free_space_margin_sigmas=k))
         s.insert(origin, hit, np.zeros((0, 2)))
         grid = s.all[0].grid
         xs = np.arange(0.025, 3.0, 0.05)

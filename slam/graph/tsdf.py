@@ -1,0 +1,118 @@
+"""TSDF submaps of the local SLAM (Cartographer's TSDF2D with TSDFRangeDataInserter2D).
+
+A truncated signed distance field stores, per cell, the weighted mean signed distance to the
+nearest surface along the scans' normals (positive in front, +-truncation at most) and the
+summed weight. The surface is the zero crossing of the bilinearly interpolated field, so it
+lies between cell centres where the hits put it: a probability grid can only say which cells
+were hit, and puts a wall at the centres of its hit cells, up to half a cell from where it is.
+The kernels are in slam._kernels.tsdf.
+
+The scan matchers read a TSDF submap through three grids of the same meta as a probability
+submap:
+- probabilities(): 1 - tsd / truncation for the least squares, whose residual 1 - M is then
+  tsd / truncation (Cartographer's TSDFMatchCostFunction2D; never-observed cells read 0);
+- search_grid(): 1 - |tsd| / truncation in [0, 1], the score of the correlative searches
+  (Cartographer's correspondence cost of a TSDF cell);
+- probability_at(): 1 - tsd / truncation clipped to [0, 1]: near 0 well in front of a surface,
+  1 on and behind it (what the loop closures' see-through check asks for).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from slam._kernels.tsdf import scan_normals, tsdf_insert
+from slam.occupancy import GrowingGrid
+
+__all__ = ["TsdfGrid", "TsdfSubmap"]
+
+
+class TsdfGrid(GrowingGrid):
+    """A growing TSDF: layers tsd (m), weight, and the id of the scan that last updated a cell."""
+
+    def __init__(self, resolution: float, center, truncation: float, **kw):
+        self.truncation = float(truncation)
+        self.scans = 0
+        super().__init__(resolution, center, **kw)
+
+    def _layers(self) -> tuple:
+        return (("tsd", self.truncation, np.float64), ("weight", 0.0, np.float64), ("stamp", 0, np.int64))
+
+    def insert(self, origin_xy: np.ndarray, hits_xy: np.ndarray, opts) -> int:
+        """Insert the hits (N, 2) of one scan taken from origin (2,), world frame m; opts: a
+        TsdfInserterConfig. Returns the number of cell updates."""
+        origin = np.ascontiguousarray(np.asarray(origin_xy, np.float64)[:2])
+        hits = np.asarray(hits_xy, np.float64).reshape(-1, 2)
+        self.scans += 1
+        if len(hits) == 0:
+            return 0
+        order = np.argsort(np.arctan2(hits[:, 1] - origin[1], hits[:, 0] - origin[0]), kind="mergesort")
+        hits = np.ascontiguousarray(hits[order])
+        normals = scan_normals(origin, hits, int(opts.num_normal_samples), float(opts.sample_radius))
+        allp = np.vstack([hits, origin[None, :]])
+        self.ensure(allp.min(axis=0) - self.truncation, allp.max(axis=0) + self.truncation)
+        n = tsdf_insert(self.tsd, self.weight, self.stamp, self.scans, self.meta, origin, hits, normals,
+                        self.truncation, float(opts.maximum_weight),
+                        float(opts.update_weight_angle_scan_normal_to_ray_kernel_bandwidth),
+                        float(opts.update_weight_distance_cell_to_hit_kernel_bandwidth),
+                        bool(opts.project_sdf_distance_to_scan_normal))
+        self.version += 1
+        return int(n)
+
+    def cells(self, xy: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(row, col, inside) of the cells under points (N, 2) m."""
+        ox, oy = self.origin
+        c = np.floor((xy[:, 0] - ox) / self.resolution).astype(np.int64)
+        r = np.floor((xy[:, 1] - oy) / self.resolution).astype(np.int64)
+        rows, cols = self.shape
+        inside = (r >= 0) & (r < rows) & (c >= 0) & (c < cols)
+        return np.where(inside, r, 0), np.where(inside, c, 0), inside
+
+
+class TsdfSubmap:
+    """One TSDF submap in the local frame, with the interface of slam.graph.submaps.Submap."""
+
+    def __init__(self, index: int, origin_xy: np.ndarray, cfg):
+        self.index = index
+        self.local_pose = np.array([origin_xy[0], origin_xy[1], 0.0])
+        self.cfg = cfg
+        self.grid = TsdfGrid(cfg.resolution, center=tuple(origin_xy[:2]), truncation=cfg.tsdf.truncation_distance,
+                             block=32, size=8.0, margin=0.3)
+        self.num_range_data = 0
+        self.finished = False
+        self._cache: dict = {}
+
+    def insert(self, origin_xy: np.ndarray, hits_xy: np.ndarray, misses_xy: np.ndarray) -> None:
+        """Insert one scan: origin (2,), hits (N, 2), misses (ignored: no free-space update, as
+        Cartographer's default update_free_space = false), all local frame m."""
+        if self.finished:
+            raise RuntimeError(f"submap {self.index} is finished")
+        self.grid.insert(origin_xy, hits_xy, self.cfg.tsdf)
+        self.num_range_data += 1
+
+    def _cached(self, name, make):
+        version, value = self._cache.get(name, (-1, None))
+        if version != self.grid.version:
+            value = np.ascontiguousarray(make())
+            self._cache[name] = (self.grid.version, value)
+        return value
+
+    def probabilities(self) -> tuple[np.ndarray, np.ndarray]:
+        """((rows, cols) 1 - tsd / truncation, never observed 0; (5,) grid meta)."""
+        g = self.grid
+        return self._cached("match", lambda: 1.0 - g.tsd / g.truncation), g.meta
+
+    def search_grid(self) -> tuple[np.ndarray, np.ndarray]:
+        """((rows, cols) 1 - |tsd| / truncation in [0, 1], never observed 0; (5,) grid meta)."""
+        g = self.grid
+        return self._cached("search", lambda: 1.0 - np.abs(g.tsd) / g.truncation), g.meta
+
+    def known_at(self, xy: np.ndarray) -> np.ndarray:
+        """(N,) bool: the cell under each point (N, 2) local frame m has been observed."""
+        r, c, inside = self.grid.cells(xy)
+        return inside & (self.grid.weight[r, c] > 0)
+
+    def probability_at(self, xy: np.ndarray) -> np.ndarray:
+        """(N,) 1 - tsd / truncation clipped to [0, 1] under each point; NaN where never observed."""
+        r, c, inside = self.grid.cells(xy)
+        p = np.clip(1.0 - self.grid.tsd[r, c] / self.grid.truncation, 0.0, 1.0)
+        return np.where(inside & (self.grid.weight[r, c] > 0), p, np.nan)
