@@ -30,11 +30,10 @@ def matcher_errors(log, cfg, map_log=None) -> np.ndarray:
     """(K, 3) forward, left (m), heading (rad) errors of the matches of `log`'s scans."""
     from slam.base import _iter_inputs
     from slam.graph.config import CeresScanMatcherConfig
-    from slam.graph.filters import adaptive_voxel_filter, voxel_filter
     from slam.graph.local import LocalSlam
-    from slam.graph.scan_matching import ceres_match, range_weights
+    from slam.graph.scan_matching import ceres_match
     from slam.pose import interpolate_poses, relative, transform_points, wrap_angle
-    from slam.preprocess import preprocess, twist_from_poses
+    from slam.preprocess import twist_from_poses
 
     tb = cfg.trajectory_builder
     local = LocalSlam(tb, log.start_pose)
@@ -43,30 +42,21 @@ def matcher_errors(log, cfg, map_log=None) -> np.ndarray:
                                   translation_weight=1.0, rotation_weight=1.0,
                                   max_num_iterations=tb.ceres_scan_matcher.max_num_iterations)
     map_scans = [s for s, *_ in _iter_inputs(map_log)] if map_log is not None else None
-    rnd, av = tb.randomized_voxel_filter, tb.adaptive_voxel_filter
-
-    def filtered(scan, twist):
-        sp = preprocess(scan, local.pre, twist)
-        return sp, voxel_filter(sp.points, tb.voxel_filter_size, rnd)
-
     errors = []
     for i, (scan, _, _, _) in enumerate(_iter_inputs(log)):
         pose = truth[i]
         twist = twist_from_poses(truth[i - 1], pose, scan.t - log.scan_t[i - 1]) if i else np.zeros(3)
-        sp, hits = filtered(scan, twist)
-        points = adaptive_voxel_filter(hits, av.max_length, av.min_num_points, av.max_range, rnd)
+        sp, hits, points = local.filter_scan(scan, twist)
         sub = local.submaps.matching_submap()
         if sub is not None and sub.num_range_data >= 20 and len(points) >= 3:
             prob, meta = sub.probabilities()
-            w = range_weights(points, tb.match_near_range)
-            if tb.ignore_unknown_points:
-                w = w * sub.known_at(transform_points(pose, points))
+            w = local.match_weights(sub, points, pose)
             d = relative(pose, ceres_match(prob, meta, points, pose, pose, weak, w))
             errors.append([d[0], d[1], wrap_angle(d[2])])
         if local.motion_filter.is_similar(scan.t, pose):
             continue
         if map_scans is not None:
-            sp, hits = filtered(map_scans[i], twist)
+            sp, hits, _ = local.filter_scan(map_scans[i], twist)
         local.submaps.insert(transform_points(pose, sp.origin[None, :])[0], transform_points(pose, hits),
                              transform_points(pose, sp.misses))
     return np.array(errors).reshape(-1, 3)

@@ -93,6 +93,15 @@ class GrowingGrid:
         ox, oy = self.origin
         return np.array([ox, oy, self.resolution, self.shape[0], self.shape[1]], dtype=np.float64)
 
+    def cells(self, xy: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(row, col, inside) of the cells under points (N, 2) m; row and col are 0 outside."""
+        ox, oy = self.origin
+        c = np.floor((xy[:, 0] - ox) / self.resolution).astype(np.int64)
+        r = np.floor((xy[:, 1] - oy) / self.resolution).astype(np.int64)
+        rows, cols = self.shape
+        inside = (r >= 0) & (r < rows) & (c >= 0) & (c < cols)
+        return np.where(inside, r, 0), np.where(inside, c, 0), inside
+
     def ensure(self, xy_min, xy_max) -> bool:
         """Grow so the box [xy_min, xy_max] (m) plus the margin lies inside. True if it grew."""
         res, b = self.resolution, self.block

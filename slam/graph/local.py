@@ -98,14 +98,27 @@ class LocalSlam:
         twist = delta / dt if dt > 0 else np.zeros(3)
         return pred, twist
 
-    def add_scan(self, scan: Scan, odom: OdomDelta | None, imu: ImuWindow | None) -> LocalResult:
-        """Match one scan and insert it if it passes the motion filter."""
-        pred, twist = self._predict(scan, odom, imu)
+    def filter_scan(self, scan: Scan, twist: np.ndarray):
+        """(preprocessed scan, voxel-filtered hits as inserted, adaptively filtered points as
+        matched) of one scan taken while moving at twist (3,)."""
         sp = preprocess(scan, self.pre, twist)
         randomized = self.cfg.randomized_voxel_filter
         hits = voxel_filter(sp.points, self.cfg.voxel_filter_size, randomized)
         av = self.cfg.adaptive_voxel_filter
         match_pts = adaptive_voxel_filter(hits, av.max_length, av.min_num_points, av.max_range, randomized)
+        return sp, hits, match_pts
+
+    def match_weights(self, submap, points: np.ndarray, pose: np.ndarray) -> np.ndarray:
+        """(N,) least-squares weights of points (N, 2) placed at pose (3,) in `submap`."""
+        w = range_weights(points, self.cfg.match_near_range)
+        if self.cfg.ignore_unknown_points:
+            w = w * submap.known_at(transform_points(pose, points))
+        return w
+
+    def add_scan(self, scan: Scan, odom: OdomDelta | None, imu: ImuWindow | None) -> LocalResult:
+        """Match one scan and insert it if it passes the motion filter."""
+        pred, twist = self._predict(scan, odom, imu)
+        sp, hits, match_pts = self.filter_scan(scan, twist)
         submap = self.submaps.matching_submap()
         pose = pred
         if submap is not None and len(match_pts) >= 3:
@@ -115,9 +128,7 @@ class LocalSlam:
                 search, _ = submap.search_grid()
                 start = real_time_correlative_match(search, meta, match_pts, pred,
                                                     self.cfg.real_time_correlative_scan_matcher)
-            w = range_weights(match_pts, self.cfg.match_near_range)
-            if self.cfg.ignore_unknown_points:
-                w = w * submap.known_at(transform_points(start, match_pts))
+            w = self.match_weights(submap, match_pts, start)
             pose = ceres_match(prob, meta, match_pts, start, pred, self.cfg.ceres_scan_matcher, w)
         pose = np.array([pose[0], pose[1], wrap_angle(pose[2])])
         self.prev_pose, self.prev_t = self.pose, self.t

@@ -80,15 +80,8 @@ class Submap:
     def _logodds_at(self, xy: np.ndarray) -> np.ndarray:
         """(N,) log-odds of the cell under each point (N, 2) local frame m; NaN where never
         observed or outside the grid."""
-        res = self.grid.resolution
-        ox, oy = self.grid.origin
-        c = np.floor((xy[:, 0] - ox) / res).astype(np.int64)
-        r = np.floor((xy[:, 1] - oy) / res).astype(np.int64)
-        rows, cols = self.grid.shape
-        ok = (r >= 0) & (r < rows) & (c >= 0) & (c < cols)
-        out = np.full(len(xy), np.nan)
-        out[ok] = self.grid.logodds[r[ok], c[ok]]
-        return out
+        r, c, inside = self.grid.cells(xy)
+        return np.where(inside, self.grid.logodds[r, c], np.nan)
 
     def known_at(self, xy: np.ndarray) -> np.ndarray:
         """(N,) bool: the cell under each point (N, 2) local frame m has been observed."""

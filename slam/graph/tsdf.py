@@ -58,15 +58,6 @@ class TsdfGrid(GrowingGrid):
         self.version += 1
         return int(n)
 
-    def cells(self, xy: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(row, col, inside) of the cells under points (N, 2) m."""
-        ox, oy = self.origin
-        c = np.floor((xy[:, 0] - ox) / self.resolution).astype(np.int64)
-        r = np.floor((xy[:, 1] - oy) / self.resolution).astype(np.int64)
-        rows, cols = self.shape
-        inside = (r >= 0) & (r < rows) & (c >= 0) & (c < cols)
-        return np.where(inside, r, 0), np.where(inside, c, 0), inside
-
 
 class TsdfSubmap:
     """One TSDF submap in the local frame, with the interface of slam.graph.submaps.Submap."""
