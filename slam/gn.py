@@ -4,9 +4,10 @@ SSRR 2011; the hector_mapping ROS package).
 
 Each scan is matched against the map built so far by Gauss-Newton on a smoothly
 (bilinearly) interpolated occupancy map, minimising sum_i (1 - M(S_i(xi)))^2 over all scan
-end points, from the coarsest map level to the finest. Every level is its own log-odds map
-updated with the scan, but only once the robot has moved map_update_distance_thresh or
-turned map_update_angle_thresh since the last map update. No wheel odometry; the IMU yaw
+end points, from the coarsest map level to the finest. Every level is its own map (reflection
+counts by default, or Hector's default log-odds: map_type) updated with the scan, but only
+once the robot has moved map_update_distance_thresh or turned map_update_angle_thresh since
+the last map update. No wheel odometry; the IMU yaw
 rate optionally predicts the rotation between scans and (prior_yaw_weight, not in hector)
 pulls every Gauss-Newton step towards that yaw. The start pose is the log's.
 """
@@ -21,7 +22,7 @@ from worlds.grid import Grid
 from slam.base import ImuWindow, OdomDelta, Scan, register
 from slam._kernels.gn_step import gn_iterate
 from slam.mapper import Mapper, MapperConfig, insert_scan_points
-from slam.occupancy import LogOddsGrid, logodds
+from slam.occupancy import LogOddsGrid, ReflectanceGrid, logodds
 from slam.pose import relative, transform_points, wrap_angle
 from slam.preprocess import PreprocessConfig, preprocess, twist_from_poses, yaw_rate_from_imu
 
@@ -41,6 +42,12 @@ class GnConfig:
 
     map_resolution: float = 0.05          # [map_resolution] m, cell size of the finest level
     map_multi_res_levels: int = 3         # [map_multi_res_levels] levels; level k has 2^k x the cell size
+    # the matching maps' cells (hector: a compile-time choice between GridMapLogOdds, its
+    # default, and GridMapReflectanceCount). "reflectance_count": reflections / visits, which
+    # keeps the wall's profile under the LDS-01's range noise; "log_odds": hector's default,
+    # whose walls saturate several cells thick, so a scan slides within them (update_factor_*,
+    # logodds_* and far_* apply to it only)
+    map_type: str = "reflectance_count"
     update_factor_free: float = 0.4       # [update_factor_free] occupancy probability of a ray's free cells
     update_factor_occupied: float = 0.9   # [update_factor_occupied] occupancy probability of a hit cell
     map_update_distance_thresh: float = 0.4   # [map_update_distance_thresh] m moved before the map is updated
@@ -60,15 +67,14 @@ class GnConfig:
     # is far more precise than the matcher's, whose yaw noise (~0.5 deg) throws walls 3 m
     # away by 2-3 cm; the matcher still corrects the gyro's slow drift
     prior_yaw_weight: float = 30.0
-    # value the matcher reads in never-touched cells (hector: 0.5, log-odds 0). Lower values
-    # remove a bias of 0.5: noisy hits that fall behind a wall cost half of those in front of
-    # it, so a wall seen from one side only pushes the scan into it (rectangle_m, ends of
-    # the long walls); but they pull new walls onto known ones (swirl_m): kept at 0.5
-    match_unknown: float = 0.5
+    # value the matcher reads in never-visited cells (hector: 0.5 for both map types). With
+    # reflection counts a wall cell reads well below 1 (the range noise spreads the hits), so
+    # 0.5 would draw scan points off the walls into unexplored space; 0 = "no reflection seen"
+    match_unknown: float = 0.0
     # scan points for matching ([laser_min_dist, laser_max_dist] are its range limits); smoothing
     # over 9 beams divides the realistic range noise by up to 3 (not in hector)
     preprocess: MatchPreprocessConfig = field(default_factory=MatchPreprocessConfig)
-    far_range: float = 2.0                # m; hits beyond it update the matching levels with far_factor_occupied (0 = off)
+    far_range: float = 0.0                # m; log_odds maps: hits beyond it update with far_factor_occupied (0 = off)
     far_factor_occupied: float = 0.6      # occupancy probability of far hits: far ranges are noisier (not in hector)
     output_map: MapperConfig = field(default_factory=MapperConfig)  # the map the run outputs: every scan at its matched pose
 
@@ -85,6 +91,10 @@ class GnConfig:
             raise ValueError(f"prior_yaw_weight must be >= 0, got {self.prior_yaw_weight}")
         if not 0.0 <= self.match_unknown <= 1.0:
             raise ValueError(f"match_unknown must lie in [0, 1], got {self.match_unknown}")
+        if self.map_type not in MAP_TYPES:
+            raise ValueError(f"map_type must be one of {', '.join(MAP_TYPES)}, got {self.map_type!r}")
+        if self.map_type != "log_odds" and self.far_range > 0:
+            raise ValueError("far_range applies to map_type log_odds only (a count has no weaker hit)")
 
     @property
     def resolutions(self) -> list[float]:
@@ -93,9 +103,9 @@ class GnConfig:
 
 
 class _Level:
-    """One map level: its log-odds grid and the probability image the matcher reads (cached)."""
+    """One map level: its grid and the probability image the matcher reads (cached)."""
 
-    def __init__(self, grid: LogOddsGrid, unknown: float = 0.5):
+    def __init__(self, grid: LogOddsGrid | ReflectanceGrid, unknown: float = 0.5):
         self.grid = grid
         self.unknown = float(unknown)
         self._prob = None
@@ -112,6 +122,15 @@ class _Level:
 
 
 _NO_PRIOR = np.zeros(3)
+MAP_TYPES = ("reflectance_count", "log_odds")
+
+
+def _matching_grid(cfg: GnConfig, resolution: float, center) -> LogOddsGrid | ReflectanceGrid:
+    """One empty matching level of cfg.map_type."""
+    if cfg.map_type == "reflectance_count":
+        return ReflectanceGrid(resolution, center)
+    return LogOddsGrid(resolution, center, logodds(cfg.update_factor_free), logodds(cfg.update_factor_occupied),
+                       cfg.logodds_min, cfg.logodds_max)
 
 
 def _gauss_newton(prob, meta, pts, est, n_it, max_angle_step, prior=None, prior_w=None):
@@ -158,9 +177,7 @@ class GaussNewtonSlam:
 
     def __init__(self, cfg: GnConfig, start: np.ndarray, rng: np.random.Generator):
         self.cfg = cfg
-        l_free, l_occ = logodds(cfg.update_factor_free), logodds(cfg.update_factor_occupied)
-        self.levels = [_Level(LogOddsGrid(res, start[:2], l_free, l_occ, cfg.logodds_min, cfg.logodds_max),
-                              cfg.match_unknown) for res in cfg.resolutions]
+        self.levels = [_Level(_matching_grid(cfg, res, start[:2]), cfg.match_unknown) for res in cfg.resolutions]
         self.iterations = [cfg.iterations_finest] + [cfg.iterations_coarse] * (cfg.map_multi_res_levels - 1)
         self.pose = np.asarray(start, dtype=np.float64).copy()
         self._last_update_pose: np.ndarray | None = None

@@ -15,7 +15,7 @@ import numpy as np
 
 from worlds.grid import Grid
 from slam.base import Scan
-from slam.occupancy import GridConfig, LogOddsGrid
+from slam.occupancy import GridConfig, LogOddsGrid, ReflectanceGrid
 from slam.pose import transform_points
 from slam.preprocess import PreprocessConfig, ScanPoints, preprocess
 
@@ -68,7 +68,7 @@ class Mapper:
         return self.grid.to_grid()
 
 
-def insert_scan_points(grid: LogOddsGrid, pts: ScanPoints, pose: np.ndarray) -> None:
+def insert_scan_points(grid: LogOddsGrid | ReflectanceGrid, pts: ScanPoints, pose: np.ndarray) -> None:
     """Rays from the lidar to every hit (occupied end) and miss (free end) of `pts` at robot `pose`."""
     sensor = transform_points(pose, pts.origin[None, :])[0]
     ends = transform_points(pose, np.vstack([pts.points, pts.misses]))

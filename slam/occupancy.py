@@ -1,4 +1,5 @@
-"""LogOddsGrid: a log-odds occupancy grid that grows as the robot explores.
+"""LogOddsGrid: a log-odds occupancy grid that grows as the robot explores; ReflectanceGrid:
+the same lattice holding hit and visit counts (Hector's GridMapReflectanceCount).
 
 Cells hold log-odds l = log(p / (1 - p)); NaN marks a cell no ray has touched yet. The grid
 grows in whole blocks of cells, keeping its lattice (the origin moves by whole cells), so a
@@ -18,7 +19,7 @@ from worlds.grid import Grid
 from slam._kernels.insert import insert_rays_inplace
 from slam._kernels.prob import logodds_to_prob
 
-__all__ = ["GrowingGrid", "LogOddsGrid", "GridConfig", "logodds"]
+__all__ = ["GrowingGrid", "LogOddsGrid", "ReflectanceGrid", "GridConfig", "logodds"]
 
 
 def logodds(p: float) -> float:
@@ -125,6 +126,20 @@ class GrowingGrid:
         self.version += 1
         return True
 
+    def _scan_rays(self, sensor_pose, points_world_xy, hit_mask):
+        """(origin (2,), ends (N, 2), hits (N,) bool) of one scan's rays as the insertion kernel
+        takes them (hit_mask None = all hits), the grid grown to hold them."""
+        o = np.ascontiguousarray(np.asarray(sensor_pose, dtype=np.float64)[:2])
+        pts = np.ascontiguousarray(np.asarray(points_world_xy, dtype=np.float64).reshape(-1, 2))
+        hits = (np.ones(len(pts), dtype=np.bool_) if hit_mask is None
+                else np.ascontiguousarray(np.asarray(hit_mask, dtype=np.bool_).reshape(-1)))
+        if len(hits) != len(pts):
+            raise ValueError(f"hit_mask has {len(hits)} entries for {len(pts)} points")
+        if len(pts):
+            allp = np.vstack([pts, o[None, :]])
+            self.ensure(allp.min(axis=0), allp.max(axis=0))
+        return o, pts, hits
+
 
 class LogOddsGrid(GrowingGrid):
     """A growing log-odds occupancy grid.
@@ -164,18 +179,12 @@ class LogOddsGrid(GrowingGrid):
         m; a hit ray frees space only up to this far short of its end point (the range noise band,
         see slam._kernels.insert). Returns the number of cells updated.
         """
-        o = np.ascontiguousarray(np.asarray(sensor_pose, dtype=np.float64)[:2])
-        pts = np.ascontiguousarray(np.asarray(points_world_xy, dtype=np.float64).reshape(-1, 2))
-        hits = (np.ones(len(pts), dtype=np.bool_) if hit_mask is None
-                else np.ascontiguousarray(np.asarray(hit_mask, dtype=np.bool_).reshape(-1)))
-        if len(hits) != len(pts):
-            raise ValueError(f"hit_mask has {len(hits)} entries for {len(pts)} points")
-        if free_margin is not None and np.size(free_margin) != len(pts):
-            raise ValueError(f"free_margin has {np.size(free_margin)} entries for {len(pts)} points")
+        if free_margin is not None and np.size(free_margin) != np.size(points_world_xy) // 2:
+            raise ValueError(f"free_margin has {np.size(free_margin)} entries for "
+                             f"{np.size(points_world_xy) // 2} points")
+        o, pts, hits = self._scan_rays(sensor_pose, points_world_xy, hit_mask)
         if len(pts) == 0:
             return 0
-        allp = np.vstack([pts, o[None, :]])
-        self.ensure(allp.min(axis=0), allp.max(axis=0))
         n = insert_rays_inplace(self.logodds, self.meta, o, pts, hits,
                                 self.l_free if l_free is None else float(l_free),
                                 self.l_occ if l_occ is None else float(l_occ),
@@ -211,3 +220,38 @@ class LogOddsGrid(GrowingGrid):
         new.__dict__.update(self.__dict__)
         new.logodds = self.logodds.copy()
         return new
+
+
+class ReflectanceGrid(GrowingGrid):
+    """A growing grid of reflection counts: hector_slam's GridMapReflectanceCount.
+
+    Every scan adds, once per cell (hits first, as LogOddsGrid), one visit to each cell its
+    rays cross or end in and one reflection to each cell a hit ends in; a cell's occupancy
+    is reflections / visits. Unlike log-odds, which saturate every cell hit in more than
+    about a sixth of its visits (at Hector's 0.4 / 0.9 update factors), the ratio keeps the
+    shape of the range noise: highest where the wall is, falling off to either side.
+    """
+
+    def _layers(self) -> tuple:
+        # NaN: never visited; `reflected` becomes 0 on a cell's first visit
+        return (("reflected", np.nan, np.float64), ("visited", np.nan, np.float64))
+
+    def insert_scan(self, sensor_pose, points_world_xy, hit_mask=None) -> int:
+        """Insert one scan: rays from the sensor (2,) or (3,) to each point (N, 2) m; hit_mask
+        (N,) bool, False for no-return rays (default: all hits). Returns the cells visited."""
+        o, pts, hits = self._scan_rays(sensor_pose, points_world_xy, hit_mask)
+        if len(pts) == 0:
+            return 0
+        # the log-odds kernel with increments 0 / 1 and no clamping counts, with the same
+        # traversal and the same once-per-scan rule
+        insert_rays_inplace(self.reflected, self.meta, o, pts, hits, 0.0, 1.0, 0.0, np.inf)
+        n = insert_rays_inplace(self.visited, self.meta, o, pts, hits, 1.0, 1.0, 0.0, np.inf)
+        self.version += 1
+        return int(n)
+
+    def prob(self, unknown: float = np.nan) -> np.ndarray:
+        """(rows, cols) reflections / visits; never-visited cells get `unknown` (NaN default)."""
+        seen = ~np.isnan(self.visited)
+        out = np.full(self.shape, unknown, dtype=np.float64)
+        out[seen] = self.reflected[seen] / self.visited[seen]
+        return out

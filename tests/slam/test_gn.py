@@ -82,6 +82,11 @@ def test_yaw_prior_changes_the_track_and_is_validated(room_log):
         load_config("gn", {"prior_yaw_weight": -1.0})
     with pytest.raises(InputError):
         load_config("gn", {"match_unknown": 1.5})
+    with pytest.raises(InputError, match="map_type"):
+        load_config("gn", {"map_type": "counts"})
+    with pytest.raises(InputError, match="far_range applies to map_type log_odds"):
+        load_config("gn", {"far_range": 2.0})
+    assert load_config("gn", {"map_type": "log_odds", "far_range": 2.0}).far_range == 2.0
 
 
 def test_config_documents_hector_defaults_and_rejects_unknown_keys():

@@ -54,3 +54,20 @@ def test_copy_is_independent():
 def test_hit_mask_length_checked():
     with pytest.raises(ValueError):
         LogOddsGrid().insert_scan([0, 0], np.zeros((3, 2)), np.ones(2, bool))
+
+
+def test_reflectance_grid_counts_reflections_over_visits_once_per_scan():
+    from slam.occupancy import ReflectanceGrid
+    g = ReflectanceGrid(1.0, center=(0, 0), size=16.0, block=16)
+    sensor = [0.5, 0.5]
+    g.insert_scan(sensor, np.array([[3.5, 0.5]]))                       # hit in cell 3
+    g.insert_scan(sensor, np.array([[2.5, 0.5], [2.6, 0.4], [3.2, 0.5]]))  # cell 2 twice, cell 3 through it
+    g.insert_scan(sensor, np.array([[4.5, 0.5]]), np.array([False]))    # no return: free to cell 4
+    r, c, inside = g.cells(np.array([[x + 0.5, 0.5] for x in range(6)]))
+    assert inside.all()
+    p = g.prob()[r, c]
+    # cell 2: hit once in scan 2 (two rays, one reflection, no extra visit), freed in scans 1 and 3
+    # cell 3: hit in scans 1 and 2, freed in scan 3
+    np.testing.assert_allclose(p[:5], [0.0, 0.0, 1 / 3, 2 / 3, 0.0])
+    assert np.isnan(p[5])                                               # never visited
+    assert g.prob(unknown=0.25)[r[5], c[5]] == 0.25
