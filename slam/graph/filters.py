@@ -27,12 +27,8 @@ def adaptive_voxel_filter(points: np.ndarray, max_length: float, min_num_points:
 
 
 def _minstd_keys_ref(n: int) -> np.ndarray:
-    keys = np.empty(n, np.int64)
-    x = 1
-    for i in range(n):
-        x = (x * MINSTD_A) % MINSTD_M
-        keys[i] = x
-    return keys
+    """The first n outputs of minstd started at 1, in closed form: key i is A^(i+1) mod M."""
+    return np.array([pow(MINSTD_A, i + 1, MINSTD_M) for i in range(n)], dtype=np.int64)
 
 
 def voxel_filter_ref(points: np.ndarray, size: float, randomized: bool = False) -> np.ndarray:
