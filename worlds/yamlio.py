@@ -120,11 +120,24 @@ def _convert(tp: Any, value: Any, where: str, field: str) -> Any:
     return value
 
 
-def from_dict(cls: type, data: Mapping[str, Any] | None, where: str = "<config>", prefix: str = ""):
+def _field_default(f: dataclasses.Field, base: Any) -> Any:
+    """The value field `f` takes when the YAML leaves it out: base's, else the field's default."""
+    if base is not None:
+        return getattr(base, f.name)
+    if f.default_factory is not dataclasses.MISSING:
+        return f.default_factory()
+    return f.default
+
+
+def from_dict(cls: type, data: Mapping[str, Any] | None, where: str = "<config>", prefix: str = "",
+              base: Any = None):
     """Build dataclass `cls` from `data`, defaults for missing keys, unknown keys rejected.
 
     where: the file (or other source) named in errors; prefix: the dotted path of `cls`
-    inside that file. Raises InputError("pf.yaml: motion.srr: expected a number, got 'x'").
+    inside that file; base: an instance of cls whose values stand in for missing keys (None:
+    the field defaults). A nested block keeps the values of its parent's default for the keys
+    it does not name, so a partial `ceres_scan_matcher:` block changes only what it names.
+    Raises InputError("pf.yaml: motion.srr: expected a number, got 'x'").
     """
     if data is None:
         data = {}
@@ -136,9 +149,14 @@ def from_dict(cls: type, data: Mapping[str, Any] | None, where: str = "<config>"
     for key, value in data.items():
         if key not in fields:
             raise InputError(f"{where}: {prefix}{key}: unknown key{_suggest(str(key), sorted(fields))}")
-        kwargs[key] = _convert(hints[key], value, where, f"{prefix}{key}")
+        default = _field_default(fields[key], base)
+        if (isinstance(value, Mapping) and dataclasses.is_dataclass(default)
+                and not isinstance(default, type)):
+            kwargs[key] = from_dict(type(default), value, where, f"{prefix}{key}.", base=default)
+        else:
+            kwargs[key] = _convert(hints[key], value, where, f"{prefix}{key}")
     try:
-        return cls(**kwargs)
+        return cls(**kwargs) if base is None else dataclasses.replace(base, **kwargs)
     except InputError:
         raise
     except (TypeError, ValueError) as err:

@@ -1,5 +1,5 @@
 """from_dict: YAML 1.1 quirks read as a user means them, real type errors still rejected."""
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import pytest
 import yaml
@@ -36,3 +36,30 @@ def test_set_override_reads_the_value_as_yaml_and_creates_levels():
                    "trajectory_builder": {"submaps": {"resolution": 0.1}}}
     with pytest.raises(InputError, match="key.path=value"):
         set_override(cfg, "huber_scale")
+
+
+@dataclass(frozen=True)
+class Matcher:
+    weights: Weights = field(default_factory=lambda: Weights(translation=100.0))
+    iterations: int = 20
+
+
+@dataclass(frozen=True)
+class Builder:
+    local: Matcher = field(default_factory=Matcher)
+    loop: Matcher = field(default_factory=lambda: Matcher(Weights(10.0, 0.5), 10))
+
+
+def test_partial_nested_block_keeps_the_parents_default_for_unnamed_keys():
+    # the parent's default_factory, not the nested class's own defaults, fills what a block leaves out
+    got = from_dict(Builder, {"local": {"weights": {"rotation": 4}}, "loop": {"iterations": 5}}, where="b.yaml")
+    assert got.local == Matcher(Weights(100.0, 4.0), 20)
+    assert got.loop == Matcher(Weights(10.0, 0.5), 5)
+    assert from_dict(Builder, {}, where="b.yaml") == Builder()
+
+
+def test_partial_nested_block_still_rejects_unknown_keys_and_bad_values():
+    with pytest.raises(InputError, match=r"b\.yaml: loop\.weights\.rotatoin: unknown key"):
+        from_dict(Builder, {"loop": {"weights": {"rotatoin": 1}}}, where="b.yaml")
+    with pytest.raises(InputError, match=r"b\.yaml: loop\.iterations: expected an integer"):
+        from_dict(Builder, {"loop": {"iterations": "many"}}, where="b.yaml")
