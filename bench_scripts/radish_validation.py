@@ -9,7 +9,8 @@ Intel and Freiburg 079 logs (real SICK scans; their odometry fields are correcte
  * raw odometry made from the corrected pose increments perturbed by GMapping's motion model
    (slam.pf_filter.motion_std) with its ROS defaults srr/srt/str/stt 0.1/0.2/0.1/0.2 times
    --noise-scale (0.5: fr079's odometry then errs 0.049 m / 1.8 deg on the short relations,
-   CSAIL's raw odometry 0.047 m / 2.5 deg), drawn with the seed, at every scan of the log;
+   CSAIL's raw odometry 0.047 m / 2.5 deg), drawn with the seed (the algorithm gets the same
+   seed), at every scan of the log;
  * only the scans GMapping would have processed kept (1 m moved or 0.5 rad turned, its
    linearUpdate / angularUpdate), as in the CSAIL .gfs;
  * the relations (intel.relations, fr079.relations) whose two ends lie within 20 / 30 ms of a
