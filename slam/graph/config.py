@@ -234,6 +234,14 @@ class OptimizationConfig:
     # then cost more than they gain (swirl_s P 0.995 -> 0.88), so Cartographer's value stays.
     local_slam_pose_translation_weight: float = 1e5
     local_slam_pose_rotation_weight: float = 1e5
+    # Weights of the wheel odometry between consecutive nodes (Cartographer 1e5 / 1e5; its pose
+    # graph gets odometry whenever cartographer_ros' use_odometry is on, which the TurtleBot3
+    # configuration turns off). Ours 0 = no odometry constraint: the odometry drifts by a few
+    # per cent and at 1e5 beside the local-SLAM chain it outweighs the loop closures (seed-0
+    # loop world P/S 0.945/1.000 -> 0.389/0.510, rectangle_l 0.922/0.921 -> 0.535/0.639; the
+    # CSAIL hold-out 0.773 -> 1.484 m). Here, unlike Cartographer, the odometry only predicts.
+    odometry_translation_weight: float = 0.0
+    odometry_rotation_weight: float = 0.0
     max_num_iterations: int = 50             # ceres_solver_options.max_num_iterations
     max_loop_residual: float = 0.25          # ours: loop closures off by more (m) after optimizing
                                              # are dropped and the problem solved again (0 = keep all)

@@ -48,7 +48,8 @@ class GraphSlam:
     def update(self, scan: Scan, odom: OdomDelta | None, imu: ImuWindow | None) -> np.ndarray:
         r = self.local.add_scan(scan, odom, imu)
         if r.is_node:
-            self.graph.add_node(r.pose, r.hits, r.inserted_into, r.created, r.finished, r.origin)
+            odometry = odom.pose if odom is not None and self.cfg.trajectory_builder.use_odometry else None
+            self.graph.add_node(r.pose, r.hits, r.inserted_into, r.created, r.finished, r.origin, odometry)
             self.node_scans.append((r.origin, r.hits, r.misses))
         self.times.append(scan.t)
         if self.cfg.final_map == "mapper":
