@@ -203,7 +203,8 @@ def _huber(f: np.ndarray, robust_rows: np.ndarray, delta: float) -> tuple[float,
     a = np.abs(f)
     big = robust_rows & (a > delta)
     rho = np.where(big, 2.0 * delta * a - delta * delta, f * f)
-    w = np.where(big, delta / np.maximum(a, 1e-300), 1.0)
+    w = np.ones_like(a)
+    w[big] = delta / a[big]           # a > delta >= 0 there; only those are divided
     return 0.5 * float(rho.sum()), w
 
 
