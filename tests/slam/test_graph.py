@@ -180,8 +180,10 @@ def _two_node_graph(weight):
     g = PoseGraph(GlobalConfig(enable_loop_closure=False, optimize_every_n_nodes=0, optimization_problem=opt),
                   subs.all)
     hits = np.array([[1.0, 0.0], [0.0, 1.0]])
-    g.add_node(np.zeros(3), hits, (0,), (0,), (), odometry=np.array([5.0, 5.0, 0.5]))
-    g.add_node(np.array([1.0, 0.0, 0.0]), hits, (0,), (), (), odometry=np.array([5.0, 5.0, 0.5]) + [1.2 * np.cos(0.5), 1.2 * np.sin(0.5), 0.0])
+    odo0 = np.array([5.0, 5.0, 0.5])               # any odometry frame: only the relative pose counts
+    odo1 = odo0 + [1.2 * np.cos(0.5), 1.2 * np.sin(0.5), 0.0]
+    g.add_node(np.zeros(3), hits, (0,), (0,), (), odometry=odo0)
+    g.add_node(np.array([1.0, 0.0, 0.0]), hits, (0,), (), (), odometry=odo1)
     return g
 
 
