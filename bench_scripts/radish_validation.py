@@ -32,7 +32,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from metrics.relations import Relations, read_relations, relations_error  # noqa: E402
+from metrics.relations import Relations, lookup_poses, read_relations, relations_error  # noqa: E402
 from sim.importers import import_log  # noqa: E402
 from sim.log import SensorLog  # noqa: E402
 from slam.pf_filter import motion_std  # noqa: E402
@@ -84,12 +84,9 @@ def synthetic_raw_log(log: SensorLog, noise_scale: float, seed: int) -> SensorLo
 def matched_relations(rel: Relations, scan_t: np.ndarray, offset: float, tol: float) -> Relations:
     """The relations, moved to the log's clock, whose both ends lie within tol of a scan time."""
     t1, t2 = rel.t1 - offset, rel.t2 - offset
-
-    def near(t):
-        j = np.clip(np.searchsorted(scan_t, t), 1, len(scan_t) - 1)
-        return np.minimum(np.abs(scan_t[j] - t), np.abs(scan_t[j - 1] - t)) <= tol
-
-    ok = near(t1) & near(t2)
+    at_scan = np.zeros((len(scan_t), 3))      # the exact lookup leaves NaN where no scan is near
+    ok = (np.isfinite(lookup_poses(t1, scan_t, at_scan, lookup="exact", tolerance=tol)[:, 0])
+          & np.isfinite(lookup_poses(t2, scan_t, at_scan, lookup="exact", tolerance=tol)[:, 0]))
     return Relations(t1[ok], t2[ok], rel.delta[ok])
 
 
