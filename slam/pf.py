@@ -6,7 +6,9 @@ Each particle holds a pose, a trajectory (a node in a tree shared by all particl
 its own count map (copy-on-write tiles, slam/pf_maps.py). Per scan every particle is moved
 by the odometry increment with Gmapping's noise (srr, srt, str, stt); once the robot has
 travelled linear_update metres or turned angular_update radians since the last update:
-  1. scan matching: each particle's pose is refined by hill climbing on its own map;
+  1. scan matching: each particle's pose is refined by hill climbing on its own map, then
+     by Hector's Gauss-Newton steps on that map read as a reflectance map, pulled towards
+     the motion prior (slam/_kernels/pf_refine.py);
   2. proposal: a Gaussian is fitted to likelihood x motion prior at poses around the
      matched pose; the new pose is drawn from it and the weight multiplied by its
      normaliser eta (the sum of that product);
@@ -34,6 +36,7 @@ from slam.pf_filter import (effective_sample_size, motion_std, normalized_weight
 from slam.pf_maps import TiledMaps
 from slam.pf_render import render_gmapping, render_surface
 from slam._kernels.pf_match import extract_patches, hill_climb, make_params, proposal_moments
+from slam._kernels.pf_refine import gn_refine
 
 __all__ = ["MotionConfig", "MatcherConfig", "PfConfig", "ParticleFilterSlam"]
 
@@ -73,6 +76,17 @@ class MatcherConfig:
     llsamplestep: float = 0.01   # llsamplestep: proposal grid step in x and y (m)
     lasamplerange: float = 0.005  # lasamplerange: proposal grid half-width in yaw (rad)
     lasamplestep: float = 0.005   # lasamplestep: proposal grid step in yaw (rad)
+    # Gauss-Newton refinement of the hill climb's pose (not in Gmapping; slam/_kernels/pf_refine.py):
+    # Hector's steps on the particle's reflectance map (hits / visits), from which the proposal
+    # is then sampled. The hill climb's score is flat within a cell under the LDS-01's range
+    # noise and stops centimetres off; the refinement lands on the walls' density ridge
+    gn_iterations: int = 5        # Gauss-Newton steps per level; 0 = stock Gmapping (hill climb only)
+    gn_levels: int = 1            # map levels, coarsest first (level k pools 2^k x 2^k cells)
+    gn_max_angle_step: float = 0.2  # rad, clamp of one step's rotation (Hector's)
+    # pull towards the motion prior's mean: the cost gains this much per squared prior standard
+    # deviation, against Hector's (1 - M)^2 per scan point; along featureless walls it keeps the
+    # odometry's motion where the map says nothing
+    gn_prior_weight: float = 3.0
 
     def params(self) -> np.ndarray:
         """The kernels' params array (slam/_kernels/pf_match.py)."""
@@ -103,6 +117,9 @@ class PfConfig:
     map_extent: float = 50.0          # xmin/xmax/ymin/ymax: half side (m) of the square map around the start
     tile: int = 16                    # cells per side of a copy-on-write map tile
     deskew: bool = True               # undo the motion during a revolution (from odometry)
+    # each return becomes the mean point of its 2k+1 neighbouring beams before matching and
+    # mapping (not in Gmapping; gn's preprocessing): the LDS-01's range noise / 3 on flat walls
+    smooth_beams: int = 4
     # output map from every scan (poses between updates from the odometry) or, as Gmapping,
     # from the update scans only
     map_all_scans: bool = False
@@ -124,6 +141,11 @@ class PfConfig:
                 raise ValueError(f"{name} must be positive, got {getattr(self, name)}")
         if self.tile < 1:
             raise ValueError(f"tile must be >= 1, got {self.tile}")
+        if self.smooth_beams < 0:
+            raise ValueError(f"smooth_beams must be >= 0, got {self.smooth_beams}")
+        m = self.matcher
+        if m.gn_iterations < 0 or m.gn_levels < 1 or m.gn_prior_weight < 0:
+            raise ValueError("matcher: need gn_iterations >= 0, gn_levels >= 1, gn_prior_weight >= 0")
 
 
 class _Tree:
@@ -173,7 +195,8 @@ class ParticleFilterSlam:
         self.params = cfg.matcher.params()
         # no-return beams (inf) are dropped, as Gmapping skips readings beyond maxRange: a
         # dropped reading says nothing about the space along the beam
-        self.pre = PreprocessConfig(range_max=cfg.max_range, free_range=0.0, deskew=cfg.deskew)
+        self.pre = PreprocessConfig(range_max=cfg.max_range, free_range=0.0, deskew=cfg.deskew,
+                                    smooth_beams=cfg.smooth_beams)
         # per scan: time, odometry pose, index of the filter update it follows
         self._scan_t: list[float] = []
         self._scan_odom: list[np.ndarray] = []
@@ -260,6 +283,8 @@ class ParticleFilterSlam:
         prior_mean = compose(self._last_update_poses, moved)
         prior_std = np.maximum(np.sqrt(self._prior_var), np.asarray(c.motion.prior_min_std))
         n = len(self.poses)
+        # the motion prior as Gauss-Newton weights (per m^2, m^2, rad^2)
+        prior_w = c.matcher.gn_prior_weight / prior_std ** 2
         start = np.empty((n, 3))
         mean = np.empty((n, 3))
         cov = np.empty((n, 3, 3))
@@ -272,6 +297,10 @@ class ParticleFilterSlam:
             pose = self.poses[p:p + 1]
             matched, score = hill_climb(*patch, pose, hits, frees, self.params)
             start[p] = matched[0] if score[0] > c.matcher.minimum_score else pose[0]
+            if c.matcher.gn_iterations > 0 and score[0] > c.matcher.minimum_score:
+                start[p] = gn_refine(m.tables[p], m.pool, m.grid_meta, box[0], hits, start[p],
+                                     c.matcher.gn_levels, c.matcher.gn_iterations,
+                                     c.matcher.gn_max_angle_step, prior_mean[p], prior_w)
             mu, cv, le = proposal_moments(*patch, start[p:p + 1], prior_mean[p:p + 1],
                                           prior_std[None, :], hits, frees, self.params)
             mean[p], cov[p], log_eta[p] = mu[0], cv[0], le[0]
