@@ -22,7 +22,7 @@ Field comments name the Gmapping (ROS slam_gmapping) parameter each field is.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Literal
 
 import numpy as np
@@ -127,6 +127,9 @@ class PfConfig:
     # that, thinned to the walls' faces (slam/pf_render.py): range noise spreads returns over cells
     render: Literal["gmapping", "surface"] = "surface"
     min_hits: float = 2.0             # surface: a face cell needs at least this many returns
+    # smooth_beams of the returns the output map is rendered from (< 0: as matched): averaging
+    # over 9 beams rounds a room's corners off the map, over 5 it keeps them
+    render_smooth_beams: int = 2
     face_shift: float = 0.2           # surface: cells the faces' returns step into the wall
     motion: MotionConfig = field(default_factory=MotionConfig)
     matcher: MatcherConfig = field(default_factory=MatcherConfig)
@@ -197,6 +200,8 @@ class ParticleFilterSlam:
         # dropped reading says nothing about the space along the beam
         self.pre = PreprocessConfig(range_max=cfg.max_range, free_range=0.0, deskew=cfg.deskew,
                                     smooth_beams=cfg.smooth_beams)
+        k = cfg.smooth_beams if cfg.render_smooth_beams < 0 else cfg.render_smooth_beams
+        self.pre_out = replace(self.pre, smooth_beams=k)
         # per scan: time, odometry pose, index of the filter update it follows
         self._scan_t: list[float] = []
         self._scan_odom: list[np.ndarray] = []
@@ -229,9 +234,9 @@ class ParticleFilterSlam:
                 self.refine_by_proposal(hits, frees, odom.pose)
                 self.resample_if_needed()
             self.insert(origin, ends, hit, odom.pose, scan.t)
+            self._all_scans.append((len(self._scan_t), *self.output_beams(scan, odom, (origin, ends, hit))))
         elif self.cfg.map_all_scans:
-            _, _, origin, ends, hit = self.beams(scan, odom)
-            self._all_scans.append((len(self._scan_t), origin, ends, hit))
+            self._all_scans.append((len(self._scan_t), *self.output_beams(scan, odom)))
         self._scan_t.append(scan.t)
         self._scan_odom.append(np.asarray(odom.pose, dtype=np.float64).copy())
         self._scan_update.append(len(self._upd_odom) - 1)
@@ -249,12 +254,21 @@ class ParticleFilterSlam:
         return (self._linear >= c.linear_update or self._angular >= c.angular_update
                 or (c.temporal_update >= 0 and t - self._last_update_t >= c.temporal_update))
 
-    def beams(self, scan: Scan, odom: OdomDelta):
+    def output_beams(self, scan: Scan, odom: OdomDelta, matched=None):
+        """The lidar origin (2,), beam ends (M, 2) and hit flags (M,) the output map is rendered
+        from: the raw returns unless render_smoothed (averaging over neighbouring beams rounds
+        the corners off). matched: beams(scan, odom)[2:], reused when they are those."""
+        if matched is not None and self.pre_out == self.pre:
+            return matched
+        return self.beams(scan, odom, out=True)[2:]
+
+    def beams(self, scan: Scan, odom: OdomDelta, out: bool = False):
         """Robot-frame beams: matched hit points (K, 2) and their free points one cell closer
-        to the lidar, the lidar origin (2,), and all beam ends (M, 2) with hit flags (M,)."""
+        to the lidar, the lidar origin (2,), and all beam ends (M, 2) with hit flags (M,).
+        raw: without the beam smoothing."""
         dt = scan.t - self._scan_t[-1] if self._scan_t else 0.0
         twist = twist_from_poses(odom.prev_pose, odom.pose, dt) if dt > 0 else None
-        pts = preprocess(scan, self.pre, twist)
+        pts = preprocess(scan, self.pre_out if out else self.pre, twist)
         o = pts.origin
         d = pts.points - o
         r = np.linalg.norm(d, axis=1)
@@ -351,7 +365,6 @@ class ParticleFilterSlam:
         self.nodes = self.tree.add(self.poses, self.nodes)
         self._upd_odom.append(np.asarray(odom_pose, dtype=np.float64).copy())
         self._upd_scans.append((origin, ends, hit))
-        self._all_scans.append((len(self._scan_t), origin, ends, hit))
         self._last_update_poses = self.poses.copy()
         self._prior_var = np.zeros(3)
         self._linear = self._angular = 0.0

@@ -93,6 +93,23 @@ def test_filter_beats_biased_odometry(room_log):
     assert pf_err < 0.06
 
 
+def test_output_map_rendered_from_its_own_smoothing_without_changing_the_filter(room_log):
+    log = _head(room_log, 60)
+    as_matched = run_algorithm("pf", log, config={**SMALL, "render_smooth_beams": -1}, seed=1)
+    raw = run_algorithm("pf", log, config={**SMALL, "render_smooth_beams": 0}, seed=1)
+    np.testing.assert_array_equal(as_matched.poses, raw.poses)
+    assert not (as_matched.grid.shape == raw.grid.shape
+                and np.array_equal(as_matched.grid.prob, raw.grid.prob, equal_nan=True))
+
+
+def test_stock_gmapping_config_switches_the_additions_off():
+    from pathlib import Path
+    from slam.base import load_config
+    stock = load_config("pf", Path(__file__).parents[2] / "slam" / "configs" / "pf_gmapping.yaml")
+    assert (stock.smooth_beams, stock.render_smooth_beams, stock.matcher.gn_iterations) == (0, 0, 0)
+    assert PfConfig().matcher.gn_iterations > 0
+
+
 def test_surface_rendering_keeps_one_face_of_a_noisy_wall():
     rng = np.random.default_rng(0)
     rows, cols = 20, 40
