@@ -76,11 +76,12 @@ class MatcherConfig:
     llsamplestep: float = 0.01   # llsamplestep: proposal grid step in x and y (m)
     lasamplerange: float = 0.005  # lasamplerange: proposal grid half-width in yaw (rad)
     lasamplestep: float = 0.005   # lasamplestep: proposal grid step in yaw (rad)
-    # Gauss-Newton refinement of the hill climb's pose (not in Gmapping; slam/_kernels/pf_refine.py):
-    # Hector's steps on the particle's reflectance map (hits / visits), from which the proposal
-    # is then sampled. The hill climb's score is flat within a cell under the LDS-01's range
-    # noise and stops centimetres off; the refinement lands on the walls' density ridge
-    gn_iterations: int = 5        # Gauss-Newton steps per level; 0 = stock Gmapping (hill climb only)
+    # Gauss-Newton refinement of the hill climb's pose (not in Gmapping;
+    # slam/_kernels/pf_refine.py): Hector's steps on the particle's reflectance map (hits /
+    # visits), from which the proposal is then sampled. The hill climb's score is flat within
+    # a cell under the LDS-01's range noise and stops centimetres off; the refinement lands on
+    # the walls' ridge
+    gn_iterations: int = 5        # Gauss-Newton steps per level; 0 = the hill climb alone (stock)
     gn_levels: int = 1            # map levels, coarsest first (level k pools 2^k x 2^k cells)
     gn_max_angle_step: float = 0.2  # rad, clamp of one step's rotation (Hector's)
     # pull towards the motion prior's mean: the cost gains this much per squared prior standard
@@ -148,7 +149,8 @@ class PfConfig:
             raise ValueError(f"smooth_beams must be >= 0, got {self.smooth_beams}")
         m = self.matcher
         if m.gn_iterations < 0 or m.gn_levels < 1 or m.gn_prior_weight < 0:
-            raise ValueError("matcher: need gn_iterations >= 0, gn_levels >= 1, gn_prior_weight >= 0")
+            raise ValueError("matcher: need gn_iterations >= 0, gn_levels >= 1, "
+                             "gn_prior_weight >= 0")
 
 
 class _Tree:
@@ -234,7 +236,8 @@ class ParticleFilterSlam:
                 self.refine_by_proposal(hits, frees, odom.pose)
                 self.resample_if_needed()
             self.insert(origin, ends, hit, odom.pose, scan.t)
-            self._all_scans.append((len(self._scan_t), *self.output_beams(scan, odom, (origin, ends, hit))))
+            rendered = self.output_beams(scan, odom, (origin, ends, hit))
+            self._all_scans.append((len(self._scan_t), *rendered))
         elif self.cfg.map_all_scans:
             self._all_scans.append((len(self._scan_t), *self.output_beams(scan, odom)))
         self._scan_t.append(scan.t)
@@ -256,8 +259,8 @@ class ParticleFilterSlam:
 
     def output_beams(self, scan: Scan, odom: OdomDelta, matched=None):
         """The lidar origin (2,), beam ends (M, 2) and hit flags (M,) the output map is rendered
-        from: the raw returns unless render_smoothed (averaging over neighbouring beams rounds
-        the corners off). matched: beams(scan, odom)[2:], reused when they are those."""
+        from: the returns smoothed over render_smooth_beams (the matcher's 9 beams round the
+        corners off). matched: beams(scan, odom)[2:], reused when they are those."""
         if matched is not None and self.pre_out == self.pre:
             return matched
         return self.beams(scan, odom, out=True)[2:]
@@ -265,7 +268,7 @@ class ParticleFilterSlam:
     def beams(self, scan: Scan, odom: OdomDelta, out: bool = False):
         """Robot-frame beams: matched hit points (K, 2) and their free points one cell closer
         to the lidar, the lidar origin (2,), and all beam ends (M, 2) with hit flags (M,).
-        raw: without the beam smoothing."""
+        out: preprocessed for the output map (render_smooth_beams) instead."""
         dt = scan.t - self._scan_t[-1] if self._scan_t else 0.0
         twist = twist_from_poses(odom.prev_pose, odom.pose, dt) if dt > 0 else None
         pts = preprocess(scan, self.pre_out if out else self.pre, twist)

@@ -10,8 +10,8 @@ from tests.slam.test_pf_kernels import ORIGIN
 
 
 def _box_scan(rng, pose, beams=360, half=(1.6, 1.1), sigma=0.005):
-    """Beam ends (robot frame) of a rectangular room [-hx, hx] x [-hy, hy] with a pillar-free
-    inside, seen from pose (the lidar at ORIGIN in the robot frame), with range noise."""
+    """Beam ends (robot frame) of an empty rectangular room [-hx, hx] x [-hy, hy] seen from
+    pose (the lidar at ORIGIN in the robot frame), with range noise."""
     hx, hy = half
     a = np.linspace(-np.pi, np.pi, beams, endpoint=False)
     c, s = np.cos(pose[2]), np.sin(pose[2])
