@@ -36,9 +36,10 @@ from slam.pf_filter import (effective_sample_size, motion_std, normalized_weight
 from slam.pf_maps import TiledMaps
 from slam.pf_render import render_gmapping, render_surface
 from slam._kernels.pf_match import extract_patches, hill_climb, make_params, proposal_moments
-from slam._kernels.pf_refine import gn_refine
+from slam._kernels.pf_refine import reflectance_patch
+from slam.gn import match_scan
 
-__all__ = ["MotionConfig", "MatcherConfig", "PfConfig", "ParticleFilterSlam"]
+__all__ = ["MotionConfig", "MatcherConfig", "PfConfig", "ParticleFilterSlam", "refine_pose"]
 
 
 @dataclass(frozen=True)
@@ -151,6 +152,28 @@ class PfConfig:
         if m.gn_iterations < 0 or m.gn_levels < 1 or m.gn_prior_weight < 0:
             raise ValueError("matcher: need gn_iterations >= 0, gn_levels >= 1, "
                              "gn_prior_weight >= 0")
+
+
+def refine_pose(table: np.ndarray, pool: np.ndarray, grid_meta: np.ndarray, box: np.ndarray,
+                points: np.ndarray, pose: np.ndarray, levels: int, iterations: int,
+                max_angle_step: float, prior: np.ndarray, prior_w: np.ndarray) -> np.ndarray:
+    """Hector's coarse-to-fine Gauss-Newton (gn's match_scan) on one particle's count map read
+    as a reflectance map (slam/_kernels/pf_refine.py).
+
+    table, pool, grid_meta: the particle's tiled map (slam/pf_maps.py); box: (4,) the cells
+    read (first row, column, rows, columns); points: (K, 2) scan end points, robot frame, m;
+    pose: (3,) start; levels: map levels (level k pools 2^k x 2^k cells); iterations: steps
+    per level; prior (3,), prior_w (3,): the quadratic pull towards the motion prior (weights
+    per m^2, m^2, rad^2; zeros = none). Returns the refined (3,) pose.
+    """
+    res = grid_meta[2]
+    corner = (grid_meta[0] + box[1] * res, grid_meta[1] + box[0] * res)
+    maps = []
+    for level in range(levels):
+        prob = reflectance_patch(table, pool, grid_meta, box, 2 ** level)
+        maps.append((prob, np.array([*corner, res * 2 ** level, *prob.shape], dtype=np.float64)))
+    return match_scan(maps, points, pose, [iterations] * levels, max_angle_step, check_prior=False,
+                      prior=prior, prior_w=prior_w)
 
 
 class _Tree:
@@ -315,9 +338,9 @@ class ParticleFilterSlam:
             matched, score = hill_climb(*patch, pose, hits, frees, self.params)
             start[p] = matched[0] if score[0] > c.matcher.minimum_score else pose[0]
             if c.matcher.gn_iterations > 0 and score[0] > c.matcher.minimum_score:
-                start[p] = gn_refine(m.tables[p], m.pool, m.grid_meta, box[0], hits, start[p],
-                                     c.matcher.gn_levels, c.matcher.gn_iterations,
-                                     c.matcher.gn_max_angle_step, prior_mean[p], prior_w)
+                start[p] = refine_pose(m.tables[p], m.pool, m.grid_meta, box[0], hits, start[p],
+                                       c.matcher.gn_levels, c.matcher.gn_iterations,
+                                       c.matcher.gn_max_angle_step, prior_mean[p], prior_w)
             mu, cv, le = proposal_moments(*patch, start[p:p + 1], prior_mean[p:p + 1],
                                           prior_std[None, :], hits, frees, self.params)
             mean[p], cov[p], log_eta[p] = mu[0], cv[0], le[0]

@@ -8,18 +8,17 @@ flat within a cell, and the climb stops centimetres and degrees off. The refinem
 particle's count map as a reflectance map, M = hits / visits per cell (0 where nothing was
 seen, hector_slam's GridMapReflectanceCount), interpolated bilinearly, and runs Hector's
 Gauss-Newton steps on sum_i (1 - M(S_i(pose)))^2 from the hill climb's pose, coarse levels
-(counts pooled 2 x 2 per level) first, with the motion prior added as a quadratic pull.
+(counts pooled 2 x 2 per level) first, with the motion prior added as a quadratic pull
+(slam.pf.refine_pose, through gn's match_scan).
 
-reflectance_patch: compiled; reflectance_patch_ref: numpy, for tests. gn_refine: the caller.
+reflectance_patch: compiled; reflectance_patch_ref: numpy, for tests.
 """
 from __future__ import annotations
 
 import numpy as np
 from numba import njit
 
-from slam._kernels.gn_step import gn_iterate
-
-__all__ = ["reflectance_patch", "reflectance_patch_ref", "gn_refine"]
+__all__ = ["reflectance_patch", "reflectance_patch_ref"]
 
 
 @njit(cache=True)
@@ -76,26 +75,3 @@ def reflectance_patch_ref(dense: np.ndarray, box, factor: int) -> np.ndarray:
     s = hv.reshape(hv.shape[0] // factor, factor, hv.shape[1] // factor, factor, 2).sum(axis=(1, 3))
     visited = s[..., 1] > 0
     return np.where(visited, s[..., 0] / np.where(visited, s[..., 1], 1.0), 0.0)
-
-
-def gn_refine(table: np.ndarray, pool: np.ndarray, grid_meta: np.ndarray, box: np.ndarray,
-              points: np.ndarray, pose: np.ndarray, levels: int, iterations: int,
-              max_angle_step: float, prior: np.ndarray, prior_w: np.ndarray) -> np.ndarray:
-    """Hector's coarse-to-fine Gauss-Newton on one particle's reflectance map.
-
-    table, pool, grid_meta: the particle's tiled map (slam/pf_maps.py); box: (4,) the cells
-    read (first row, column, rows, columns); points: (K, 2) scan end points, robot frame, m;
-    pose: (3,) start; levels: map levels (level k pools 2^k x 2^k cells); iterations: steps
-    per level; prior (3,), prior_w (3,): the quadratic pull towards the motion prior (weights
-    per m^2, m^2, rad^2; zeros = none). Returns the refined (3,) pose.
-    """
-    est = np.asarray(pose, dtype=np.float64).copy()
-    pts = np.ascontiguousarray(points, dtype=np.float64)
-    res = grid_meta[2]
-    for level in range(levels - 1, -1, -1):
-        factor = 2 ** level
-        prob = reflectance_patch(table, pool, grid_meta, box, factor)
-        meta = np.array([grid_meta[0] + box[1] * res, grid_meta[1] + box[0] * res, res * factor,
-                         prob.shape[0], prob.shape[1]])
-        est, _ = gn_iterate(prob, meta, pts, est, iterations, max_angle_step, prior, prior_w)
-    return est

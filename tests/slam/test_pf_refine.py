@@ -1,10 +1,11 @@
-"""slam._kernels.pf_refine: the reflectance patch against its reference, and the Gauss-Newton
-refinement recovering known offsets on a particle's map."""
+"""slam._kernels.pf_refine: the reflectance patch against its reference; slam.pf.refine_pose,
+the Gauss-Newton refinement, recovering known offsets on a particle's map."""
 import numpy as np
 import pytest
 
 from slam._kernels.pf_map import insert_scan_ref
-from slam._kernels.pf_refine import gn_refine, reflectance_patch, reflectance_patch_ref
+from slam._kernels.pf_refine import reflectance_patch, reflectance_patch_ref
+from slam.pf import refine_pose
 from slam.pf_maps import TiledMaps
 from tests.slam.test_pf_kernels import ORIGIN
 
@@ -67,7 +68,7 @@ def test_refinement_recovers_offsets_from_a_map_of_noisy_scans():
         truth = np.r_[rng.uniform(-0.4, 0.4), rng.uniform(-0.3, 0.3), rng.uniform(-np.pi, np.pi)]
         pts = _box_scan(rng, truth, sigma=0.01)
         start = truth + np.r_[rng.uniform(-0.04, 0.04, 2), np.radians(rng.uniform(-2, 2))]
-        est = gn_refine(maps.tables[0], maps.pool, maps.grid_meta, box, pts, start, 2, 10, 0.2,
+        est = refine_pose(maps.tables[0], maps.pool, maps.grid_meta, box, pts, start, 2, 10, 0.2,
                         no_prior, no_prior)
         errors.append([np.hypot(*(est[:2] - truth[:2])), abs(est[2] - truth[2])])
     errors = np.array(errors)
@@ -101,7 +102,7 @@ def test_prior_holds_the_unconstrained_direction():
     pts = corridor_scan(truth)
     start = truth + [0.0, -0.03, 0.01]
     prior_w = 3.0 / np.array([0.02, 0.02, 0.04]) ** 2
-    est = gn_refine(maps.tables[0], maps.pool, maps.grid_meta, box, pts, start, 1, 10, 0.2,
+    est = refine_pose(maps.tables[0], maps.pool, maps.grid_meta, box, pts, start, 1, 10, 0.2,
                     truth, prior_w)
     assert abs(est[0] - truth[0]) < 0.005       # held by the prior
     assert abs(est[1] - truth[1]) < 0.01        # set by the walls
