@@ -9,7 +9,9 @@ counts by default, or Hector's default log-odds: map_type) updated with the scan
 once the robot has moved map_update_distance_thresh or turned map_update_angle_thresh since
 the last map update. No wheel odometry; the IMU yaw
 rate optionally predicts the rotation between scans and (prior_yaw_weight, not in hector)
-pulls every Gauss-Newton step towards that yaw. The start pose is the log's.
+pulls every Gauss-Newton step towards that yaw; a direction of translation the scan's surface
+normals do not constrain keeps the estimates' constant-velocity prediction (degeneracy_*, not in
+hector). The start pose is the log's.
 """
 from __future__ import annotations
 
@@ -21,6 +23,7 @@ import numpy as np
 from worlds.grid import Grid
 from slam.base import ImuWindow, OdomDelta, Scan, register
 from slam._kernels.gn_step import gn_iterate
+from slam._kernels.normals import normal_information, scan_normals
 from slam.mapper import Mapper, MapperConfig, insert_scan_points
 from slam.occupancy import LogOddsGrid, ReflectanceGrid, logodds
 from slam.pose import relative, transform_points, wrap_angle
@@ -71,6 +74,17 @@ class GnConfig:
     # reflection counts a wall cell reads well below 1 (the range noise spreads the hits), so
     # 0.5 would draw scan points off the walls into unexplored space; 0 = "no reflection seen"
     match_unknown: float = 0.0
+    # not in hector: a direction of translation the scan's geometry leaves unconstrained keeps
+    # the constant-velocity prediction (degeneracy-aware matching, Zhang, Kaess, Singh, ICRA
+    # 2016). Along two parallel walls the count map's texture along the walls, not the walls,
+    # decides the motion and holds the estimate still (the corridor). A direction is degenerate
+    # when the smaller eigenvalue of the mean outer product of the scan's normals (points off
+    # the mapped cells count as none) is below degeneracy_threshold (0 = off; 1/2 for a scan
+    # that constrains all directions equally); it is then pulled to the position moved at the
+    # estimates' mean velocity over deskew_velocity_window, with degeneracy_weight x points
+    # per m^2
+    degeneracy_threshold: float = 0.1
+    degeneracy_weight: float = 1000.0
     # scan points for matching ([laser_min_dist, laser_max_dist] are its range limits); smoothing
     # over 9 beams divides the realistic range noise by up to 3 (not in hector)
     preprocess: MatchPreprocessConfig = field(default_factory=MatchPreprocessConfig)
@@ -89,6 +103,8 @@ class GnConfig:
             raise ValueError("iterations_finest must be >= 1 and iterations_coarse >= 0")
         if self.prior_yaw_weight < 0:
             raise ValueError(f"prior_yaw_weight must be >= 0, got {self.prior_yaw_weight}")
+        if not 0.0 <= self.degeneracy_threshold <= 0.5 or self.degeneracy_weight < 0:
+            raise ValueError("need 0 <= degeneracy_threshold <= 0.5 and degeneracy_weight >= 0")
         if not 0.0 <= self.match_unknown <= 1.0:
             raise ValueError(f"match_unknown must lie in [0, 1], got {self.match_unknown}")
         if self.map_type not in MAP_TYPES:
@@ -121,7 +137,11 @@ class _Level:
         return self._prob, self._meta
 
 
-_NO_PRIOR = np.zeros(3)
+_NO_PRIOR = np.zeros((3, 3))
+# scan normals for the degeneracy check: 2 beams to either side (5 points, about 5 degrees of the
+# LDS-01), neighbours at most 0.2 m per beam step away (farther ones are across an edge)
+NORMAL_HALF_WINDOW = 2
+NORMAL_MAX_GAP = 0.2
 MAP_TYPES = ("reflectance_count", "log_odds")
 
 
@@ -133,12 +153,20 @@ def _matching_grid(cfg: GnConfig, resolution: float, center) -> LogOddsGrid | Re
                        cfg.logodds_min, cfg.logodds_max)
 
 
+def _prior_information(prior_w) -> np.ndarray:
+    """(3, 3) prior information from None (none), (3,) weights (diagonal) or a (3, 3) matrix."""
+    if prior_w is None:
+        return _NO_PRIOR
+    w = np.asarray(prior_w, dtype=np.float64)
+    return np.ascontiguousarray(np.diag(w) if w.ndim == 1 else w)
+
+
 def _gauss_newton(prob, meta, pts, est, n_it, max_angle_step, prior=None, prior_w=None):
     """n_it Gauss-Newton steps on one level; returns (pose, cost at the returned pose)."""
     est = np.asarray(est, dtype=np.float64)
     prior = est if prior is None else np.asarray(prior, dtype=np.float64)
-    prior_w = _NO_PRIOR if prior_w is None else np.asarray(prior_w, dtype=np.float64)
-    return gn_iterate(prob, meta, pts, est, int(n_it), float(max_angle_step), prior, prior_w)
+    return gn_iterate(prob, meta, pts, est, int(n_it), float(max_angle_step), prior,
+                      _prior_information(prior_w))
 
 
 def match_scan(levels: list[tuple[np.ndarray, np.ndarray]], points: np.ndarray, pose: np.ndarray,
@@ -152,8 +180,8 @@ def match_scan(levels: list[tuple[np.ndarray, np.ndarray]], points: np.ndarray, 
     check_prior: also run the finest level from `pose` itself and keep whichever end has the
     lower cost (a coarse level can be biased by up to half its cell, out of the finest
     level's reach); the coarse path wins only with a cost below prior_cost_ratio times the
-    prior path's. prior, prior_w: (3,) motion prior pose and its weights (see gn_iterate;
-    None = none). Returns the refined (3,) pose.
+    prior path's. prior: (3,) motion prior pose; prior_w: its weights, (3,) per coordinate or
+    a (3, 3) information matrix (see gn_iterate; None = none). Returns the refined (3,) pose.
     """
     est = np.array(pose, dtype=np.float64)
     pts = np.ascontiguousarray(points, dtype=np.float64)
@@ -184,20 +212,28 @@ class GaussNewtonSlam:
         self._times: list[float] = []
         self._poses: list[np.ndarray] = []
         self._map_updates = 0
+        self._degenerate_scans = 0
         self.mapper = Mapper(cfg.output_map, center=start[:2])
 
     def update(self, scan: Scan, odom: OdomDelta | None, imu: ImuWindow | None) -> np.ndarray:
-        predicted, twist = self._predict(scan, imu)
+        predicted, twist, moved_xy = self._predict(scan, imu)
         pts = preprocess(scan, self.cfg.preprocess, twist)
         if self._last_update_pose is None:
             self.pose = predicted  # the first scan builds the map at the start pose
         elif len(pts.points):
-            prior_w = np.zeros(3)
+            prior_info = np.zeros((3, 3))
             if self.cfg.use_imu and imu is not None and len(imu.gyro):  # no gyro, no yaw prior
-                prior_w[2] = self.cfg.prior_yaw_weight * len(pts.points)
+                prior_info[2, 2] = self.cfg.prior_yaw_weight * len(pts.points)
+            prior = predicted.copy()
+            degenerate = self._degenerate_direction(pts.points, predicted)
+            if degenerate is not None:
+                prior[:2] = moved_xy
+                prior_info[:2, :2] = (self.cfg.degeneracy_weight * len(pts.points)
+                                      * np.outer(degenerate, degenerate))
+                self._degenerate_scans += 1
             self.pose = match_scan([lv.prob_meta() for lv in self.levels], pts.points, predicted,
                                    self.iterations, self.cfg.max_angle_step, self.cfg.check_prior,
-                                   self.cfg.prior_cost_ratio, predicted, prior_w)
+                                   self.cfg.prior_cost_ratio, prior, prior_info)
         else:
             self.pose = predicted
         if self._should_update_map():
@@ -207,12 +243,29 @@ class GaussNewtonSlam:
         self._poses.append(self.pose.copy())
         return self.pose
 
-    def _predict(self, scan: Scan, imu: ImuWindow | None) -> tuple[np.ndarray, np.ndarray | None]:
+    def _degenerate_direction(self, points: np.ndarray, pose: np.ndarray) -> np.ndarray | None:
+        """World-frame unit direction of translation the scan's normals do not constrain (the
+        smaller eigenvector of their mean outer product, if its eigenvalue is below
+        degeneracy_threshold), else None."""
+        if self.cfg.degeneracy_threshold <= 0 or not self._poses:
+            return None
+        pts = np.ascontiguousarray(points, dtype=np.float64)
+        normals = scan_normals(pts, NORMAL_HALF_WINDOW, NORMAL_MAX_GAP)
+        # only points on mapped ground constrain the match: a wall coming into view is not in
+        # the map until the next map update, and its points read "no reflection" until then
+        normals *= self.levels[-1].grid.observed(transform_points(pose, pts))[:, None]
+        lam, vec = np.linalg.eigh(normal_information(normals))
+        if lam[0] >= self.cfg.degeneracy_threshold:
+            return None
+        c, s_ = math.cos(pose[2]), math.sin(pose[2])
+        return np.array([c * vec[0, 0] - s_ * vec[1, 0], s_ * vec[0, 0] + c * vec[1, 0]])
+
+    def _predict(self, scan: Scan, imu: ImuWindow | None) -> tuple[np.ndarray, np.ndarray | None, np.ndarray]:
         """Pose prior (last pose, optionally moved at the estimates' mean velocity, yaw advanced
-        by the gyro) and the twist for de-skewing."""
+        by the gyro), the twist for de-skewing and the position moved at that velocity."""
         pred = self.pose.copy()
         if not self._poses:
-            return pred, None
+            return pred, None, pred[:2].copy()
         dt = scan.t - self._times[-1]
         twist = np.zeros(3)
         win = self.cfg.deskew_velocity_window
@@ -225,15 +278,17 @@ class GaussNewtonSlam:
                 j -= 1
             if j < k:
                 twist = twist_from_poses(self._poses[j], self._poses[k], self._times[k] - self._times[j])
-        if self.cfg.constant_velocity:
-            c, s_ = math.cos(pred[2]), math.sin(pred[2])
-            pred[0] += (c * twist[0] - s_ * twist[1]) * dt
-            pred[1] += (s_ * twist[0] + c * twist[1]) * dt
         w = yaw_rate_from_imu(imu) if self.cfg.use_imu else None
+        # the body-frame velocity carried along the arc: the chord points at the mid-way yaw
+        yaw_mid = pred[2] + 0.5 * (twist[2] if w is None else w) * dt
+        c, s_ = math.cos(yaw_mid), math.sin(yaw_mid)
+        moved_xy = pred[:2] + np.array([c * twist[0] - s_ * twist[1], s_ * twist[0] + c * twist[1]]) * dt
+        if self.cfg.constant_velocity:
+            pred[:2] = moved_xy
         if w is not None:
             pred[2] = wrap_angle(pred[2] + w * dt)
             twist[2] = w
-        return pred, twist
+        return pred, twist, moved_xy
 
     def _should_update_map(self) -> bool:
         if self._last_update_pose is None:
@@ -270,4 +325,4 @@ class GaussNewtonSlam:
         return np.asarray(self._times, dtype=np.float64), np.asarray(self._poses, dtype=np.float64).reshape(-1, 3)
 
     def extra_stats(self) -> dict:
-        return {"map_updates": self._map_updates}
+        return {"map_updates": self._map_updates, "degenerate_scans": self._degenerate_scans}

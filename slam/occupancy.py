@@ -103,6 +103,12 @@ class GrowingGrid:
         inside = (r >= 0) & (r < rows) & (c >= 0) & (c < cols)
         return np.where(inside, r, 0), np.where(inside, c, 0), inside
 
+    def observed(self, xy: np.ndarray) -> np.ndarray:
+        """(N,) bool: the cell under each point (N, 2) m has been touched by a scan (its first
+        layer is not NaN); False outside the grid."""
+        r, c, inside = self.cells(np.asarray(xy, dtype=np.float64).reshape(-1, 2))
+        return inside & ~np.isnan(getattr(self, self._layers()[0][0])[r, c])
+
     def ensure(self, xy_min, xy_max) -> bool:
         """Grow so the box [xy_min, xy_max] (m) plus the margin lies inside. True if it grew."""
         res, b = self.resolution, self.block

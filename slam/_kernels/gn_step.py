@@ -72,33 +72,35 @@ def _solve3(H, g):
 
 
 @njit(cache=True)
-def _add_prior(H, g, est, prior, prior_w):
-    """Adds sum_k prior_w[k] * (prior[k] - est[k])^2 (yaw difference wrapped) to the normal
+def _add_prior(H, g, est, prior, prior_info):
+    """Adds d^T prior_info d, d = prior - est (yaw difference wrapped), to the normal
     equations in place; returns that cost."""
+    d = prior - est
+    d[2] = (d[2] + np.pi) % (2.0 * np.pi) - np.pi
     cost = 0.0
-    for k in range(3):
-        if prior_w[k] > 0.0:
-            d = prior[k] - est[k]
-            if k == 2:
-                d = (d + np.pi) % (2.0 * np.pi) - np.pi
-            H[k, k] += prior_w[k]
-            g[k] += prior_w[k] * d
-            cost += prior_w[k] * d * d
+    for i in range(3):
+        for j in range(3):
+            w = prior_info[i, j]
+            if w != 0.0:
+                H[i, j] += w
+                g[i] += w * d[j]
+                cost += d[i] * w * d[j]
     return cost
 
 
 @njit(cache=True)
-def gn_iterate(prob, grid_meta, pts_robot, pose, iterations, max_angle_step, prior, prior_w):
+def gn_iterate(prob, grid_meta, pts_robot, pose, iterations, max_angle_step, prior, prior_info):
     """`iterations` Hector Gauss-Newton steps from pose (3,); the rotation of a step is clamped
-    to +-max_angle_step (rad). prior: (3,) pose, prior_w: (3,) weights (cost per m^2, m^2,
-    rad^2; zeros = stock Hector) of a quadratic pull towards the prior added to the cost.
+    to +-max_angle_step (rad). prior: (3,) pose; prior_info: (3, 3) symmetric information
+    (cost per m^2 and rad^2; zeros = stock Hector) of a quadratic pull towards the prior,
+    d^T prior_info d with d = prior - pose, added to the cost.
     Returns (pose (3,), cost at that pose, prior term included)."""
     est = pose.copy()
     for _ in range(iterations):
         H, g, _ = gn_normal_equations(prob, grid_meta, pts_robot, est)
         if H[0, 0] == 0.0 or H[1, 1] == 0.0:
             break
-        _add_prior(H, g, est, prior, prior_w)
+        _add_prior(H, g, est, prior, prior_info)
         step, ok = _solve3(H, g)
         if not ok:
             break
@@ -109,14 +111,14 @@ def gn_iterate(prob, grid_meta, pts_robot, pose, iterations, max_angle_step, pri
         est += step
         est[2] = (est[2] + np.pi) % (2.0 * np.pi) - np.pi
     H, g, cost = gn_normal_equations(prob, grid_meta, pts_robot, est)
-    return est, cost + _add_prior(H, g, est, prior, prior_w)
+    return est, cost + _add_prior(H, g, est, prior, prior_info)
 
 
-def gn_iterate_ref(prob, grid_meta, pts_robot, pose, iterations, max_angle_step, prior=None, prior_w=None):
+def gn_iterate_ref(prob, grid_meta, pts_robot, pose, iterations, max_angle_step, prior=None, prior_info=None):
     """Reference of gn_iterate with the numpy normal equations and np.linalg.solve."""
     est = np.array(pose, dtype=np.float64)
     prior = np.zeros(3) if prior is None else np.asarray(prior, dtype=np.float64)
-    W = np.diag(np.zeros(3) if prior_w is None else np.asarray(prior_w, dtype=np.float64))
+    W = np.zeros((3, 3)) if prior_info is None else np.asarray(prior_info, dtype=np.float64)
 
     def prior_diff(e):
         d = prior - e

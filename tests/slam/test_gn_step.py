@@ -39,7 +39,8 @@ def test_gradient_of_cost_matches_finite_differences(rng):
 
 @pytest.mark.kernel
 @pytest.mark.parametrize("seed", range(4))
-@pytest.mark.parametrize("prior_w", [(0.0, 0.0, 0.0), (0.0, 0.0, 50.0), (20.0, 20.0, 5.0)])
+@pytest.mark.parametrize("prior_w", [(0.0, 0.0, 0.0), (0.0, 0.0, 50.0), (20.0, 20.0, 5.0),
+                                     ((30.0, -10.0, 0.0), (-10.0, 5.0, 0.0), (0.0, 0.0, 2.0))])
 def test_iterate_matches_reference(seed, prior_w):
     from slam._kernels.gn_step import gn_iterate, gn_iterate_ref
     rng = np.random.default_rng(seed)
@@ -50,7 +51,8 @@ def test_iterate_matches_reference(seed, prior_w):
     pts = rng.uniform(-0.5, 0.5, (100, 2))
     pose = np.array([2.0, 1.8, 0.1]) + rng.normal(0, 0.05, 3)
     prior = pose + np.array([0.02, -0.03, 3.1])  # yaw near +-pi: the difference must wrap
-    w = np.array(prior_w)
+    w = np.array(prior_w, dtype=np.float64)
+    w = np.diag(w) if w.ndim == 1 else w        # per-coordinate weights or a full information
     a, ca = gn_iterate(prob, meta, pts, pose, 4, 0.2, prior, w)
     b, cb = gn_iterate_ref(prob, meta, pts, pose, 4, 0.2, prior, w)
     np.testing.assert_allclose(a, b, atol=1e-9)
@@ -68,8 +70,8 @@ def test_yaw_prior_holds_the_yaw_on_a_rotation_symmetric_map():
     pts = 0.3 * np.c_[np.cos(ang), np.sin(ang)] + [0.05, 0.0]   # off-centre ring: yaw moves it
     pose = np.array([2.0, 2.0, 0.0])
     prior = np.array([2.0, 2.0, 0.05])
-    free, _ = gn_iterate(prob, meta, pts, pose, 10, 0.2, prior, np.zeros(3))
-    held, cost = gn_iterate(prob, meta, pts, pose, 10, 0.2, prior, np.array([0.0, 0.0, 1e6]))
+    free, _ = gn_iterate(prob, meta, pts, pose, 10, 0.2, prior, np.zeros((3, 3)))
+    held, cost = gn_iterate(prob, meta, pts, pose, 10, 0.2, prior, np.diag([0.0, 0.0, 1e6]))
     assert held[2] == pytest.approx(0.05, abs=1e-3)
     assert abs(free[2] - 0.05) > 1e-2          # without the prior the map decides
     c_map = gn_normal_equations(prob, meta, pts, held)[2]

@@ -71,3 +71,13 @@ def test_reflectance_grid_counts_reflections_over_visits_once_per_scan():
     np.testing.assert_allclose(p[:5], [0.0, 0.0, 1 / 3, 2 / 3, 0.0])
     assert np.isnan(p[5])                                               # never visited
     assert g.prob(unknown=0.25)[r[5], c[5]] == 0.25
+
+
+@pytest.mark.parametrize("cls", ["LogOddsGrid", "ReflectanceGrid"])
+def test_observed_marks_the_cells_a_scan_touched(cls):
+    import slam.occupancy as occ
+    grid = (occ.LogOddsGrid(0.1, (0, 0), -0.4, 0.9, -5, 5) if cls == "LogOddsGrid"
+            else occ.ReflectanceGrid(0.1, (0, 0)))
+    grid.insert_scan(np.array([0.0, 0.0]), np.array([[2.0, 0.0]]))
+    seen = grid.observed(np.array([[0.05, 0.0], [1.0, 0.01], [2.0, 0.0], [0.0, 1.0], [500.0, 0.0]]))
+    np.testing.assert_array_equal(seen, [True, True, True, False, False])
