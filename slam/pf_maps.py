@@ -23,8 +23,11 @@ class TiledMaps:
         self.tile = int(tile)
         n_tiles = int(np.ceil(2 * extent / (resolution * tile)))
         rows = cols = n_tiles * self.tile
-        ox = float(center[0]) - rows * resolution / 2
-        oy = float(center[1]) - rows * resolution / 2
+        # the lower-left corner on the world's lattice (multiples of the resolution), as the
+        # true map and the other algorithms' grids: a map rasterized on a lattice shifted by
+        # part of a cell puts a wall's face in another cell than the true map does
+        ox = round((float(center[0]) - rows * resolution / 2) / resolution) * resolution
+        oy = round((float(center[1]) - rows * resolution / 2) / resolution) * resolution
         self.grid_meta = np.array([ox, oy, resolution, rows, cols, self.tile], dtype=np.float64)
         self.tables = np.full((n, n_tiles, n_tiles), -1, dtype=np.int32)
         self.pool = np.zeros((capacity, tile, tile, N_FIELDS), dtype=np.float32)

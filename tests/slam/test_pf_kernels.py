@@ -185,3 +185,17 @@ def test_grid_likelihoods_equal_one_evaluation_per_pose(seed):
             for ix in range(-nl, nl + 1) for iy in range(-nl, nl + 1) for ia in range(-na, na + 1)]
     np.testing.assert_allclose(got, want, rtol=1e-9, atol=1e-9)
     assert np.ptp(got) > 1.0        # the poses differ enough for the likelihoods to differ
+
+
+@pytest.mark.parametrize("center", [(0.475, 0.5), (0.785, 0.485), (-1.2345, 3.01), (0.0, 0.0)])
+def test_maps_lie_on_the_world_lattice(center):
+    """Cell boundaries at multiples of the resolution, wherever the robot starts: the true map's
+    lattice, so a wall's face falls in the same cell in both (a start 0.475 m from the origin
+    once put every x face of the swirl worlds half a cell off)."""
+    maps = TiledMaps(1, np.array(center), 2.0, 0.05, tile=8)
+    ox, oy, res = maps.grid_meta[:3]
+    assert ox / res == pytest.approx(round(ox / res), abs=1e-9)
+    assert oy / res == pytest.approx(round(oy / res), abs=1e-9)
+    half = maps.grid_meta[3] * res / 2
+    assert abs(ox + half - center[0]) <= res / 2 + 1e-12      # still centred on the start
+    assert abs(oy + half - center[1]) <= res / 2 + 1e-12
