@@ -246,7 +246,8 @@ class GaussNewtonSlam:
     def _degenerate_direction(self, points: np.ndarray, pose: np.ndarray) -> np.ndarray | None:
         """World-frame unit direction of translation the scan's normals do not constrain (the
         smaller eigenvector of their mean outer product, if its eigenvalue is below
-        degeneracy_threshold), else None."""
+        degeneracy_threshold), else None. Points off the coarsest level's observed cells
+        count as points without a normal."""
         if self.cfg.degeneracy_threshold <= 0 or not self._poses:
             return None
         pts = np.ascontiguousarray(points, dtype=np.float64)
@@ -260,7 +261,8 @@ class GaussNewtonSlam:
         c, s_ = math.cos(pose[2]), math.sin(pose[2])
         return np.array([c * vec[0, 0] - s_ * vec[1, 0], s_ * vec[0, 0] + c * vec[1, 0]])
 
-    def _predict(self, scan: Scan, imu: ImuWindow | None) -> tuple[np.ndarray, np.ndarray | None, np.ndarray]:
+    def _predict(self, scan: Scan,
+                 imu: ImuWindow | None) -> tuple[np.ndarray, np.ndarray | None, np.ndarray]:
         """Pose prior (last pose, optionally moved at the estimates' mean velocity, yaw advanced
         by the gyro), the twist for de-skewing and the position moved at that velocity."""
         pred = self.pose.copy()
@@ -282,7 +284,8 @@ class GaussNewtonSlam:
         # the body-frame velocity carried along the arc: the chord points at the mid-way yaw
         yaw_mid = pred[2] + 0.5 * (twist[2] if w is None else w) * dt
         c, s_ = math.cos(yaw_mid), math.sin(yaw_mid)
-        moved_xy = pred[:2] + np.array([c * twist[0] - s_ * twist[1], s_ * twist[0] + c * twist[1]]) * dt
+        step = np.array([c * twist[0] - s_ * twist[1], s_ * twist[0] + c * twist[1]]) * dt
+        moved_xy = pred[:2] + step
         if self.cfg.constant_velocity:
             pred[:2] = moved_xy
         if w is not None:

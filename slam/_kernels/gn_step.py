@@ -114,7 +114,8 @@ def gn_iterate(prob, grid_meta, pts_robot, pose, iterations, max_angle_step, pri
     return est, cost + _add_prior(H, g, est, prior, prior_info)
 
 
-def gn_iterate_ref(prob, grid_meta, pts_robot, pose, iterations, max_angle_step, prior=None, prior_info=None):
+def gn_iterate_ref(prob, grid_meta, pts_robot, pose, iterations, max_angle_step, prior=None,
+                   prior_info=None):
     """Reference of gn_iterate with the numpy normal equations and np.linalg.solve."""
     est = np.array(pose, dtype=np.float64)
     prior = np.zeros(3) if prior is None else np.asarray(prior, dtype=np.float64)

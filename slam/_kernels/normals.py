@@ -26,9 +26,10 @@ def scan_normals(points, half, max_gap):
     for i in range(n):
         a = max(i - half, 0)
         b = min(i + half, n - 1)
-        while a < i and np.hypot(points[a, 0] - points[i, 0], points[a, 1] - points[i, 1]) > max_gap * (i - a):
+        px, py = points[i, 0], points[i, 1]
+        while a < i and np.hypot(points[a, 0] - px, points[a, 1] - py) > max_gap * (i - a):
             a += 1
-        while b > i and np.hypot(points[b, 0] - points[i, 0], points[b, 1] - points[i, 1]) > max_gap * (b - i):
+        while b > i and np.hypot(points[b, 0] - px, points[b, 1] - py) > max_gap * (b - i):
             b -= 1
         if b - a < 2:
             continue
