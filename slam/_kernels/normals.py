@@ -7,6 +7,11 @@ occluding edge do not tilt it. The mean outer product of the normals, A = sum n 
 says which translations the scan's geometry constrains: along two parallel walls its
 smaller eigenvalue is near 0 (gn's degeneracy check, Zhang, Kaess and Singh, ICRA 2016).
 
+Not graph's Cartographer normals (slam/_kernels/tsdf.py: the mean of the segment normals
+to neighbours within a radius, the ray direction where there are none): a point with no usable
+neighbour must carry no direction here, not the ray's. On the seed-0 corridor log gn's check
+with those normals (radius 0.3 m) scored 0.678/0.729 against 0.843/0.921 with these.
+
 scan_normals: compiled; scan_normals_ref: numpy (eigh per point), for tests.
 """
 from __future__ import annotations
