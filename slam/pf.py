@@ -73,10 +73,16 @@ class MatcherConfig:
     ogain: float = 3.0           # ogain: weights smoothed as exp(log w / (ogain * particles))
     lskip: int = 0               # lskip: use every (lskip+1)-th beam for matching
     minimum_score: float = 50.0  # minimumScore (TurtleBot3 value): below it the match is ignored (odometry pose kept)
-    llsamplerange: float = 0.01  # llsamplerange: proposal grid half-width in x and y (m)
-    llsamplestep: float = 0.01   # llsamplestep: proposal grid step in x and y (m)
-    lasamplerange: float = 0.005  # lasamplerange: proposal grid half-width in yaw (rad)
-    lasamplestep: float = 0.005   # lasamplestep: proposal grid step in yaw (rad)
+    # the proposal grid around the matched pose. Gmapping's defaults are 0.01 m and 0.005 rad,
+    # steps equal to them; here the hill climb's last step (lstep / 2^iterations, astep /
+    # 2^iterations). The likelihood drops by a nullLikelihood whenever a beam stops matching,
+    # so it is lumpy at the centimetre scale: on the default grid the fitted mean moved up to
+    # the grid's 1 cm half-width from the matched pose at every update, and the error
+    # random-walked along corridors (README, pf)
+    llsamplerange: float = 0.0015625  # llsamplerange: proposal grid half-width in x and y (m)
+    llsamplestep: float = 0.0015625   # llsamplestep: proposal grid step in x and y (m)
+    lasamplerange: float = 0.0015625  # lasamplerange: proposal grid half-width in yaw (rad)
+    lasamplestep: float = 0.0015625   # lasamplestep: proposal grid step in yaw (rad)
     # Gauss-Newton refinement of the hill climb's pose (not in Gmapping;
     # slam/_kernels/pf_refine.py): Hector's steps on the particle's reflectance map (hits /
     # visits), from which the proposal is then sampled. The hill climb's score is flat within
