@@ -4,7 +4,9 @@ import numpy as np
 import pytest
 
 from slam._kernels.pf_map import insert_scan_ref
-from slam._kernels.pf_refine import reflectance_patch, reflectance_patch_ref
+from slam._kernels.pf_refine import (mean_hit_normal_equations, mean_hit_normal_equations_ref,
+                                    mean_hit_patch, mean_hit_patch_ref, reflectance_patch,
+                                    reflectance_patch_ref)
 from slam.pf import refine_pose
 from slam.pf_maps import TiledMaps
 from tests.slam.test_pf_kernels import ORIGIN
@@ -107,3 +109,67 @@ def test_prior_holds_the_unconstrained_direction():
     assert abs(est[0] - truth[0]) < 0.005       # held by the prior
     assert abs(est[1] - truth[1]) < 0.01        # set by the walls
     assert abs(est[2] - truth[2]) < np.radians(0.3)
+
+
+@pytest.mark.kernel
+@pytest.mark.parametrize("seed", range(3))
+def test_mean_hit_patch_and_normal_equations_match_references(seed):
+    rng = np.random.default_rng(seed)
+    maps = TiledMaps(1, np.zeros(2), 2.0, 0.05, tile=8)
+    for _ in range(3):
+        pose = np.r_[rng.uniform(-0.3, 0.3, 2), rng.uniform(-np.pi, np.pi)]
+        ends = _box_scan(rng, pose, beams=90, sigma=0.01)
+        maps.insert(pose[None, :], ORIGIN, ends, rng.random(len(ends)) > 0.1)
+    rows = int(maps.grid_meta[3])
+    for box in ([10, 12, 41, 37], [-5, rows - 30, 47, 45], [rows // 2 - 30, rows // 2 - 30, 60, 60]):
+        box = np.array(box, dtype=np.int64)
+        got = mean_hit_patch(maps.tables[0], maps.pool, maps.grid_meta, box)
+        ref = mean_hit_patch_ref(maps.dense(0), box, 0.05)
+        for a, b in zip(got, ref):
+            np.testing.assert_allclose(a, b, atol=1e-5)
+    box = np.array([rows // 2 - 30, rows // 2 - 30, 60, 60], dtype=np.int64)
+    prob, off_x, off_y, hits = mean_hit_patch(maps.tables[0], maps.pool, maps.grid_meta, box)
+    meta = np.array([maps.grid_meta[0] + box[1] * 0.05, maps.grid_meta[1] + box[0] * 0.05, 0.05,
+                     *prob.shape])
+    pose = np.r_[rng.uniform(-0.2, 0.2, 2), rng.uniform(-np.pi, np.pi)]
+    pts = _box_scan(rng, pose, beams=120, sigma=0.01)
+    H, g, cost = mean_hit_normal_equations(prob, off_x, off_y, hits, meta, pts, pose)
+    H_ref, g_ref, cost_ref = mean_hit_normal_equations_ref(prob, off_x, off_y, hits, meta, pts, pose)
+    np.testing.assert_allclose(H, H_ref, rtol=1e-6, atol=1e-6)
+    np.testing.assert_allclose(g, g_ref, rtol=1e-6, atol=1e-6)
+    assert cost == pytest.approx(cost_ref, rel=1e-9)
+    assert np.abs(g).sum() > 0      # the scan does read the map
+
+
+def test_mean_hit_reading_puts_the_wall_at_its_face_not_its_cell_centre():
+    """A wall whose face lies 1.5 cm inside its cell (as in the rectangle worlds) is the only
+    thing fixing x: read at the cell centres the match ends about 1 cm towards the wall; read
+    at the mean hit points, within a few millimetres of the truth."""
+    rng = np.random.default_rng(5)
+    maps = TiledMaps(1, np.zeros(2), 5.0, 0.05, tile=16)
+    half = (1.615, 1.115)       # faces at x = 1.615 (cell 1.60-1.65) and y = +-1.115
+
+    def scan(pose):
+        pts = _box_scan(rng, pose, half=half, sigma=0.005)
+        near = np.hypot(*(pts - ORIGIN).T) < 1.4     # the wall at x = -1.615 stays out of range
+        return pts[near]
+
+    for x in np.linspace(0.6, 0.9, 8):
+        pose = np.array([x, rng.uniform(-0.1, 0.1), rng.uniform(-0.2, 0.2)])
+        ends = scan(pose)
+        maps.insert(pose[None, :], ORIGIN, ends, np.ones(len(ends), bool))
+    rows = int(maps.grid_meta[3])
+    box = np.array([rows // 2 - 40, rows // 2 - 20, 80, 80], dtype=np.int64)
+    no_prior = np.zeros(3)
+    err = {True: [], False: []}
+    for _ in range(8):
+        truth = np.array([rng.uniform(0.65, 0.85), rng.uniform(-0.1, 0.1), rng.uniform(-0.2, 0.2)])
+        pts = scan(truth)
+        start = truth + np.r_[rng.uniform(-0.02, 0.02, 2), 0.0]
+        for mean_hit in (False, True):
+            est = refine_pose(maps.tables[0], maps.pool, maps.grid_meta, box, pts, start, 1, 10,
+                              0.2, no_prior, no_prior, mean_hit=mean_hit)
+            err[mean_hit].append(est[0] - truth[0])
+    assert np.mean(err[False]) > 0.005                 # the centres' reading: towards the wall
+    assert np.abs(np.mean(err[True])) < 0.003
+    assert np.max(np.abs(err[True])) < 0.008
