@@ -193,9 +193,11 @@ def refine_pose(table: np.ndarray, pool: np.ndarray, grid_meta: np.ndarray, box:
                           check_prior=False, prior=prior, prior_w=prior_w)
     prob, off_x, off_y, hits = mean_hit_patch(table, pool, grid_meta, box)
     meta = np.array([*corner, res, *prob.shape], dtype=np.float64)
-    return mean_hit_iterate(prob, off_x, off_y, hits, meta, np.ascontiguousarray(points, dtype=np.float64),
-                            np.asarray(pose, dtype=np.float64), int(iterations), float(max_angle_step),
-                            np.asarray(prior, dtype=np.float64), np.diag(np.asarray(prior_w, dtype=np.float64)))
+    pts = np.ascontiguousarray(points, dtype=np.float64)
+    prior_info = np.diag(np.asarray(prior_w, dtype=np.float64))
+    return mean_hit_iterate(prob, off_x, off_y, hits, meta, pts, np.asarray(pose, dtype=np.float64),
+                            int(iterations), float(max_angle_step),
+                            np.asarray(prior, dtype=np.float64), prior_info)
 
 
 class _Tree:
