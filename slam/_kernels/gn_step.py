@@ -13,7 +13,8 @@ from numba import njit
 
 from slam._kernels.interp import add_normal_row, interp_point, interp_value_grad_ref, symmetrize_upper
 
-__all__ = ["gn_normal_equations", "gn_normal_equations_ref", "gn_iterate", "gn_iterate_ref"]
+__all__ = ["gn_normal_equations", "gn_normal_equations_ref", "gn_update", "gn_iterate",
+           "gn_iterate_ref"]
 
 
 @njit(cache=True)
@@ -89,6 +90,26 @@ def _add_prior(H, g, est, prior, prior_info):
 
 
 @njit(cache=True)
+def gn_update(H, g, est, prior, prior_info, max_angle_step):
+    """One Gauss-Newton step from normal equations H (3, 3), g (3,) at est (3,), in place:
+    the prior's pull added, the rotation clamped to +-max_angle_step, yaw wrapped. Returns
+    False (est unchanged) when the map gives no gradient or H is singular."""
+    if H[0, 0] == 0.0 or H[1, 1] == 0.0:
+        return False
+    _add_prior(H, g, est, prior, prior_info)
+    step, ok = _solve3(H, g)
+    if not ok:
+        return False
+    if step[2] > max_angle_step:
+        step[2] = max_angle_step
+    elif step[2] < -max_angle_step:
+        step[2] = -max_angle_step
+    est += step
+    est[2] = (est[2] + np.pi) % (2.0 * np.pi) - np.pi
+    return True
+
+
+@njit(cache=True)
 def gn_iterate(prob, grid_meta, pts_robot, pose, iterations, max_angle_step, prior, prior_info):
     """`iterations` Hector Gauss-Newton steps from pose (3,); the rotation of a step is clamped
     to +-max_angle_step (rad). prior: (3,) pose; prior_info: (3, 3) symmetric information
@@ -98,18 +119,8 @@ def gn_iterate(prob, grid_meta, pts_robot, pose, iterations, max_angle_step, pri
     est = pose.copy()
     for _ in range(iterations):
         H, g, _ = gn_normal_equations(prob, grid_meta, pts_robot, est)
-        if H[0, 0] == 0.0 or H[1, 1] == 0.0:
+        if not gn_update(H, g, est, prior, prior_info, max_angle_step):
             break
-        _add_prior(H, g, est, prior, prior_info)
-        step, ok = _solve3(H, g)
-        if not ok:
-            break
-        if step[2] > max_angle_step:
-            step[2] = max_angle_step
-        elif step[2] < -max_angle_step:
-            step[2] = -max_angle_step
-        est += step
-        est[2] = (est[2] + np.pi) % (2.0 * np.pi) - np.pi
     H, g, cost = gn_normal_equations(prob, grid_meta, pts_robot, est)
     return est, cost + _add_prior(H, g, est, prior, prior_info)
 

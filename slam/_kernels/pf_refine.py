@@ -28,11 +28,23 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from slam._kernels.gn_step import _add_prior, _solve3
+from slam._kernels.gn_step import gn_update
 from slam._kernels.interp import add_normal_row, interp_point, interp_value_grad_ref, symmetrize_upper
 
 __all__ = ["reflectance_patch", "reflectance_patch_ref", "mean_hit_patch", "mean_hit_patch_ref",
            "mean_hit_normal_equations", "mean_hit_normal_equations_ref", "mean_hit_iterate"]
+
+
+@njit(cache=True, inline="always")
+def _cell_slot(table, rows, cols, tile, r, c):
+    """Pool tile index, row and column in the tile of grid cell (r, c); tile -1 when the cell
+    is outside the grid or its tile was never written."""
+    if r < 0 or r >= rows or c < 0 or c >= cols:
+        return -1, 0, 0
+    tr = r // tile
+    tc = c // tile
+    return table[tr, tc], r - tr * tile, c - tc * tile
+
 
 
 @njit(cache=True)
@@ -52,20 +64,10 @@ def reflectance_patch(table, pool, grid_meta, box, factor):
     hits = np.zeros((out_r, out_c))
     visits = np.zeros((out_r, out_c))
     for i in range(nr):
-        r = r0 + i
-        if r < 0 or r >= rows:
-            continue
-        tr = r // tile
-        lr = r - tr * tile
         for j in range(nc):
-            c = c0 + j
-            if c < 0 or c >= cols:
-                continue
-            tc = c // tile
-            t = table[tr, tc]
+            t, lr, lc = _cell_slot(table, rows, cols, tile, r0 + i, c0 + j)
             if t < 0:
                 continue
-            lc = c - tc * tile
             hits[i // factor, j // factor] += pool[t, lr, lc, 0]
             visits[i // factor, j // factor] += pool[t, lr, lc, 1]
     out = np.zeros((out_r, out_c))
@@ -107,20 +109,10 @@ def mean_hit_patch(table, pool, grid_meta, box):
     off_y = np.zeros((nr, nc))
     hits = np.zeros((nr, nc))
     for i in range(nr):
-        r = r0 + i
-        if r < 0 or r >= rows:
-            continue
-        tr = r // tile
-        lr = r - tr * tile
         for j in range(nc):
-            c = c0 + j
-            if c < 0 or c >= cols:
-                continue
-            tc = c // tile
-            t = table[tr, tc]
+            t, lr, lc = _cell_slot(table, rows, cols, tile, r0 + i, c0 + j)
             if t < 0:
                 continue
-            lc = c - tc * tile
             h = pool[t, lr, lc, 0]
             v = pool[t, lr, lc, 1]
             if v > 0:
@@ -239,20 +231,11 @@ def mean_hit_normal_equations_ref(prob, off_x, off_y, hits, grid_meta, pts_robot
 @njit(cache=True)
 def mean_hit_iterate(prob, off_x, off_y, hits, grid_meta, pts_robot, pose, iterations,
                      max_angle_step, prior, prior_info):
-    """gn_step.gn_iterate's steps on mean_hit_normal_equations; returns the (3,) pose."""
+    """gn_step.gn_iterate's steps (gn_update) on mean_hit_normal_equations; returns the (3,)
+    pose."""
     est = pose.copy()
     for _ in range(iterations):
         H, g, _ = mean_hit_normal_equations(prob, off_x, off_y, hits, grid_meta, pts_robot, est)
-        if H[0, 0] == 0.0 or H[1, 1] == 0.0:
+        if not gn_update(H, g, est, prior, prior_info, max_angle_step):
             break
-        _add_prior(H, g, est, prior, prior_info)
-        step, ok = _solve3(H, g)
-        if not ok:
-            break
-        if step[2] > max_angle_step:
-            step[2] = max_angle_step
-        elif step[2] < -max_angle_step:
-            step[2] = -max_angle_step
-        est += step
-        est[2] = (est[2] + np.pi) % (2.0 * np.pi) - np.pi
     return est
