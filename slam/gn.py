@@ -11,7 +11,9 @@ the last map update. No wheel odometry; the IMU yaw
 rate optionally predicts the rotation between scans and (prior_yaw_weight, not in hector)
 pulls every Gauss-Newton step towards that yaw; a direction of translation the scan's surface
 normals do not constrain keeps the estimates' constant-velocity prediction (degeneracy_*, not in
-hector). The start pose is the log's.
+hector). Not in hector either: each point reads the map gradient along its own surface normal
+(gradient_along_normal), and a weak constant-velocity prior pulls every step
+(velocity_prior_weight). The start pose is the log's.
 """
 from __future__ import annotations
 
@@ -22,7 +24,7 @@ import numpy as np
 
 from worlds.grid import Grid
 from slam.base import ImuWindow, OdomDelta, Scan, register
-from slam._kernels.gn_step import gn_iterate
+from slam._kernels.gn_step import NO_NORMALS, gn_iterate
 from slam._kernels.normals import normal_information, scan_normals
 from slam.mapper import Mapper, MapperConfig, insert_scan_points
 from slam.occupancy import LogOddsGrid, ReflectanceGrid, logodds
@@ -85,6 +87,17 @@ class GnConfig:
     # per m^2
     degeneracy_threshold: float = 0.1
     degeneracy_weight: float = 1000.0
+    # not in hector: each point reads the map gradient along its surface normal only (the scan
+    # normals of the degeneracy check; points without one keep the full gradient), so a point
+    # on a wall pulls across the wall, never along it: along a wall the count map's texture
+    # (rays at grazing angles cross its face cells without ending there) is not information
+    gradient_along_normal: bool = True
+    # not in hector: a weak constant-velocity motion model, a pull of every Gauss-Newton step
+    # towards the position moved at the estimates' mean velocity (deskew_velocity_window), in
+    # cost per scan point per m^2 (0 = off). At 3 and ~300 points it is a prior of sigma
+    # ~3 cm per scan: it damps the scan-to-scan jitter of a position that only far, noisy
+    # walls pin, and leaves the map in charge wherever it constrains the position
+    velocity_prior_weight: float = 3.0
     # scan points for matching ([laser_min_dist, laser_max_dist] are its range limits); smoothing
     # over 9 beams divides the realistic range noise by up to 3 (not in hector)
     preprocess: MatchPreprocessConfig = field(default_factory=MatchPreprocessConfig)
@@ -105,6 +118,8 @@ class GnConfig:
             raise ValueError(f"prior_yaw_weight must be >= 0, got {self.prior_yaw_weight}")
         if not 0.0 <= self.degeneracy_threshold <= 0.5 or self.degeneracy_weight < 0:
             raise ValueError("need 0 <= degeneracy_threshold <= 0.5 and degeneracy_weight >= 0")
+        if self.velocity_prior_weight < 0:
+            raise ValueError(f"velocity_prior_weight must be >= 0, got {self.velocity_prior_weight}")
         if not 0.0 <= self.match_unknown <= 1.0:
             raise ValueError(f"match_unknown must lie in [0, 1], got {self.match_unknown}")
         if self.map_type not in MAP_TYPES:
@@ -161,18 +176,19 @@ def _prior_information(prior_w) -> np.ndarray:
     return np.ascontiguousarray(np.diag(w) if w.ndim == 1 else w)
 
 
-def _gauss_newton(prob, meta, pts, est, n_it, max_angle_step, prior=None, prior_w=None):
+def _gauss_newton(prob, meta, pts, est, n_it, max_angle_step, prior=None, prior_w=None,
+                  normals=NO_NORMALS):
     """n_it Gauss-Newton steps on one level; returns (pose, cost at the returned pose)."""
     est = np.asarray(est, dtype=np.float64)
     prior = est if prior is None else np.asarray(prior, dtype=np.float64)
     return gn_iterate(prob, meta, pts, est, int(n_it), float(max_angle_step), prior,
-                      _prior_information(prior_w))
+                      _prior_information(prior_w), normals)
 
 
 def match_scan(levels: list[tuple[np.ndarray, np.ndarray]], points: np.ndarray, pose: np.ndarray,
                iterations: list[int], max_angle_step: float = 0.2, check_prior: bool = True,
                prior_cost_ratio: float = 1.0, prior: np.ndarray | None = None,
-               prior_w: np.ndarray | None = None) -> np.ndarray:
+               prior_w: np.ndarray | None = None, normals: np.ndarray | None = None) -> np.ndarray:
     """Hector's coarse-to-fine Gauss-Newton scan matching.
 
     levels: [(prob (rows, cols), grid_meta (5,))] finest first; points: (N, 2) m in the robot
@@ -181,17 +197,20 @@ def match_scan(levels: list[tuple[np.ndarray, np.ndarray]], points: np.ndarray, 
     lower cost (a coarse level can be biased by up to half its cell, out of the finest
     level's reach); the coarse path wins only with a cost below prior_cost_ratio times the
     prior path's. prior: (3,) motion prior pose; prior_w: its weights, (3,) per coordinate or
-    a (3, 3) information matrix (see gn_iterate; None = none). Returns the refined (3,) pose.
+    a (3, 3) information matrix (see gn_iterate; None = none). normals: (N, 2) robot-frame
+    surface normals, each point's map gradient read along its normal (zero row: the full
+    gradient; None = stock Hector). Returns the refined (3,) pose.
     """
     est = np.array(pose, dtype=np.float64)
     pts = np.ascontiguousarray(points, dtype=np.float64)
+    nrm = NO_NORMALS if normals is None else np.ascontiguousarray(normals, dtype=np.float64)
     for (prob, meta), n_it in list(zip(levels, iterations))[:0:-1]:
-        est, _ = _gauss_newton(prob, meta, pts, est, n_it, max_angle_step, prior, prior_w)
+        est, _ = _gauss_newton(prob, meta, pts, est, n_it, max_angle_step, prior, prior_w, nrm)
     prob, meta = levels[0]
-    est, cost = _gauss_newton(prob, meta, pts, est, iterations[0], max_angle_step, prior, prior_w)
+    est, cost = _gauss_newton(prob, meta, pts, est, iterations[0], max_angle_step, prior, prior_w, nrm)
     if check_prior and len(levels) > 1:
         alt, alt_cost = _gauss_newton(prob, meta, pts, np.array(pose, dtype=np.float64), iterations[0],
-                                      max_angle_step, prior, prior_w)
+                                      max_angle_step, prior, prior_w, nrm)
         if cost >= prior_cost_ratio * alt_cost:
             est = alt
     return est
@@ -225,15 +244,23 @@ class GaussNewtonSlam:
             if self.cfg.use_imu and imu is not None and len(imu.gyro):  # no gyro, no yaw prior
                 prior_info[2, 2] = self.cfg.prior_yaw_weight * len(pts.points)
             prior = predicted.copy()
-            degenerate = self._degenerate_direction(pts.points, predicted)
+            points = np.ascontiguousarray(pts.points, dtype=np.float64)
+            normals = scan_normals(points, NORMAL_HALF_WINDOW, NORMAL_MAX_GAP)
+            if self.cfg.velocity_prior_weight > 0 and len(self._poses) > 1:
+                prior[:2] = moved_xy
+                prior_info[:2, :2] = self.cfg.velocity_prior_weight * len(points) * np.eye(2)
+            degenerate = self._degenerate_direction(points, normals, predicted)
             if degenerate is not None:
                 prior[:2] = moved_xy
-                prior_info[:2, :2] = (self.cfg.degeneracy_weight * len(pts.points)
+                # replaces the velocity prior's block: the degenerate direction is held hard,
+                # the other one is left to the map
+                prior_info[:2, :2] = (self.cfg.degeneracy_weight * len(points)
                                       * np.outer(degenerate, degenerate))
                 self._degenerate_scans += 1
-            self.pose = match_scan([lv.prob_meta() for lv in self.levels], pts.points, predicted,
+            self.pose = match_scan([lv.prob_meta() for lv in self.levels], points, predicted,
                                    self.iterations, self.cfg.max_angle_step, self.cfg.check_prior,
-                                   self.cfg.prior_cost_ratio, prior, prior_info)
+                                   self.cfg.prior_cost_ratio, prior, prior_info,
+                                   normals if self.cfg.gradient_along_normal else None)
         else:
             self.pose = predicted
         if self._should_update_map():
@@ -243,18 +270,18 @@ class GaussNewtonSlam:
         self._poses.append(self.pose.copy())
         return self.pose
 
-    def _degenerate_direction(self, points: np.ndarray, pose: np.ndarray) -> np.ndarray | None:
+    def _degenerate_direction(self, points: np.ndarray, normals: np.ndarray,
+                              pose: np.ndarray) -> np.ndarray | None:
         """World-frame unit direction of translation the scan's normals do not constrain (the
         smaller eigenvector of their mean outer product, if its eigenvalue is below
-        degeneracy_threshold), else None. Points off the coarsest level's observed cells
-        count as points without a normal."""
+        degeneracy_threshold), else None. points: (N, 2) robot frame; normals: their
+        scan_normals. Points off the coarsest level's observed cells count as points without
+        a normal."""
         if self.cfg.degeneracy_threshold <= 0 or not self._poses:
             return None
-        pts = np.ascontiguousarray(points, dtype=np.float64)
-        normals = scan_normals(pts, NORMAL_HALF_WINDOW, NORMAL_MAX_GAP)
         # only points on mapped ground constrain the match: a wall coming into view is not in
         # the map until the next map update, and its points read "no reflection" until then
-        normals *= self.levels[-1].grid.observed(transform_points(pose, pts))[:, None]
+        normals = normals * self.levels[-1].grid.observed(transform_points(pose, points))[:, None]
         lam, vec = np.linalg.eigh(normal_information(normals))
         if lam[0] >= self.cfg.degeneracy_threshold:
             return None

@@ -1,4 +1,6 @@
 """gn (Hector): scan matching recovers known offsets; the square room; determinism; config."""
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -10,6 +12,9 @@ from slam.preprocess import PreprocessConfig, preprocess, twist_from_poses
 from worlds.yamlio import InputError
 
 from tests.slam.synthlog import box_room_segments, make_log, score, square_route, truth_grid
+
+
+CONFIGS = Path(__file__).resolve().parents[2] / "slam" / "configs"
 
 
 @pytest.fixture(scope="module")
@@ -125,6 +130,25 @@ def test_degenerate_direction_keeps_the_constant_velocity_prediction(corridor_lo
     assert stock > 3.0 and stock_degenerate == 0
     assert checked < 0.3
     assert degenerate > 50            # the middle stretch, about 4 m at 0.25 m/s and 5 Hz
+
+
+def test_normal_gradient_and_velocity_prior_change_the_track_and_are_validated(room_log):
+    """Each of the two (not in hector) changes the track on its own, deterministically; stock
+    hector's and the Radish gallery's configs keep both off; a negative weight fails."""
+    default = run_algorithm("gn", room_log)
+    assert (default.config["gradient_along_normal"], default.config["velocity_prior_weight"]) == (True, 3.0)
+    for change in ({"gradient_along_normal": False}, {"velocity_prior_weight": 0.0}):
+        a = run_algorithm("gn", room_log, config=change)
+        b = run_algorithm("gn", room_log, config=change)
+        np.testing.assert_array_equal(a.poses, b.poses)
+        assert not np.array_equal(a.poses, default.poses), change
+    for name in ("gn_hector", "radish_gn"):
+        cfg = load_config("gn", CONFIGS / f"{name}.yaml")
+        assert (cfg.gradient_along_normal, cfg.velocity_prior_weight) == (False, 0.0), name
+    with pytest.raises(InputError, match="velocity_prior_weight"):
+        load_config("gn", {"velocity_prior_weight": -1.0})
+    with pytest.raises(InputError):
+        load_config("gn", {"gradient_along_normal": "sometimes"})
 
 
 def test_degeneracy_config_is_validated():
