@@ -245,7 +245,11 @@ class GaussNewtonSlam:
                 prior_info[2, 2] = self.cfg.prior_yaw_weight * len(pts.points)
             prior = predicted.copy()
             points = np.ascontiguousarray(pts.points, dtype=np.float64)
-            normals = scan_normals(points, NORMAL_HALF_WINDOW, NORMAL_MAX_GAP)
+            # the scan normals feed the gradient projection and the degeneracy check; stock
+            # hector (both off) skips them
+            normals = (scan_normals(points, NORMAL_HALF_WINDOW, NORMAL_MAX_GAP)
+                       if self.cfg.gradient_along_normal or self.cfg.degeneracy_threshold > 0
+                       else None)
             if self.cfg.velocity_prior_weight > 0 and len(self._poses) > 1:
                 prior[:2] = moved_xy
                 prior_info[:2, :2] = self.cfg.velocity_prior_weight * len(points) * np.eye(2)
@@ -275,7 +279,7 @@ class GaussNewtonSlam:
         """World-frame unit direction of translation the scan's normals do not constrain (the
         smaller eigenvector of their mean outer product, if its eigenvalue is below
         degeneracy_threshold), else None. points: (N, 2) robot frame; normals: their
-        scan_normals. Points off the coarsest level's observed cells count as points without
+        scan_normals (None when the check is off). Points off the coarsest level's observed cells count as points without
         a normal."""
         if self.cfg.degeneracy_threshold <= 0 or not self._poses:
             return None
