@@ -4,9 +4,10 @@ The path is the start position followed by the route waypoints. Each control ste
 robot aims at the point `lookahead` metres of arc length ahead of its progress along
 the path, with curvature 2 sin(alpha) / L. The forward speed ramps up at `accel`, is
 lowered so the turn rate stays <= max_turn_rate (0.7 rad/s in the reference study) and
-near the end of the route, and drops to zero for a turn in place when the heading error
+to brake within the distance left along the route, and drops to zero for a turn in place when the heading error
 exceeds `turn_in_place`. Progress only moves forward (within a window), so a path that
-passes near itself (a spiral) is followed in order.
+passes near itself (a spiral), revisits a waypoint or ends where it starts (a closed
+route) is followed in order.
 """
 from __future__ import annotations
 
@@ -134,8 +135,10 @@ class PurePursuit:
         v_target = cfg.max_linear
         if abs(curvature) > 1e-9:
             v_target = min(v_target, cfg.max_turn_rate / abs(curvature))
-        # stop at the end of the route: v <= sqrt(2 a d)
-        v_target = min(v_target, math.sqrt(2.0 * cfg.decel * max(min(to_end, remaining + to_end), 0.0)))
+        # stop at the end of the route: v <= sqrt(2 a d), d the distance left along the route
+        # (a closed route ends where it starts: the straight line to its end is no guide);
+        # off the path near the end, the straight line is the longer and the one to cover
+        v_target = min(v_target, math.sqrt(2.0 * cfg.decel * max(remaining, to_end)))
         if v_target > self.v:
             self.v = min(v_target, self.v + cfg.accel * dt)
         else:

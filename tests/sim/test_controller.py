@@ -69,3 +69,36 @@ def test_zero_length_route_is_done_at_once():
     assert ctrl.done and ctrl.command(1.0, 1.0, 0.0, 0.0, 0.02) == (0.0, 0.0)
     with pytest.raises(ValueError):
         PurePursuit(np.zeros((0, 2)), ControllerConfig())
+
+
+def test_closed_route_drives_all_the_way_round_and_back():
+    # ends where it starts and the first leg is straight ahead: the straight line to the end
+    # is zero at the start, the distance left along the route is the whole route
+    path = np.array([[0, 0], [3, 0], [3, 2], [0, 2], [0, 0]], float)
+    ctrl, rec = _drive(path)
+    assert ctrl.done and not ctrl.stuck
+    assert rec[:, 1].max() > 2.8 and rec[:, 2].max() > 1.8
+    assert rec[:, 4].max() == pytest.approx(ControllerConfig().max_linear)
+    x, y = rec[-1, 1], rec[-1, 2]
+    assert np.hypot(x, y) < 0.1
+
+
+def test_route_that_revisits_a_waypoint_is_driven_in_order():
+    # out to (2, 0), over to (2, 1.5), back through (2, 0) and home: (2, 0) is visited twice
+    path = np.array([[0, 0], [2, 0], [2, 1.5], [2, 0], [0, 0]], float)
+    ctrl, rec = _drive(path)
+    assert ctrl.done and not ctrl.stuck
+    assert rec[:, 2].max() > 1.3
+    assert np.hypot(rec[-1, 1], rec[-1, 2]) < 0.1
+
+
+@pytest.mark.parametrize("first", [(2.0, 0.0), (-2.0, 0.0), (0.0, 2.0), (0.0, -2.0)],
+                         ids=["ahead", "behind", "left", "right"])
+def test_first_waypoint_in_any_direction(first):
+    path = np.array([[0, 0], first, [first[0] + 1.0, first[1] + 1.0]], float)
+    ctrl, rec = _drive(path, start_yaw=0.0)
+    assert ctrl.done and not ctrl.stuck
+    assert np.hypot(rec[-1, 1] - path[-1, 0], rec[-1, 2] - path[-1, 1]) < 0.1
+    line = LineString(path)
+    assert max(line.distance(Point(p)) for p in rec[:, 1:3]) < 0.3
+
