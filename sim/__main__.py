@@ -1,4 +1,9 @@
-"""Command line: python -m sim record | show | import  (see --help of each)."""
+"""Command line: python -m sim record | show | import  (see --help of each).
+
+Exit codes: 0 done; 2 bad input (one line on stderr); 3 (`record`) the log was written but
+cannot be trusted: the robot got stuck, the time limit ran out, or the log saw too little of
+the walls (a warning line on stderr says which).
+"""
 from __future__ import annotations
 
 import argparse
@@ -6,6 +11,9 @@ import sys
 from pathlib import Path
 
 from worlds.yamlio import InputError
+
+# `record` wrote the log, but it did not finish its route or did not cover the walls
+EXIT_UNTRUSTED_LOG = 3
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -19,6 +27,9 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--noise", default="realistic", help="profile name (ideal, gazebo, realistic) "
                    "or YAML file (default: realistic)")
     r.add_argument("--config", default=None, help="RecordConfig YAML (rates, lidar, controller, robot)")
+    r.add_argument("--min-coverage", type=float, default=None, metavar="SHARE",
+                   help="warn and exit 3 when the log's lidar saw less than this share of the "
+                        "true wall cells (default 0.95)")
     s = sub.add_parser("show", help="draw the true and odometry paths of a log over its world")
     s.add_argument("log")
     s.add_argument("--out", default=None, help="PNG file (default: LOG with .png)")
@@ -35,19 +46,27 @@ def _load_world(name_or_path: str):
     return load_world(name_or_path)
 
 
-def cmd_record(args) -> None:
+def cmd_record(args) -> int:
     from sim.log import write_log
-    from sim.record import record
+    from sim.record import MIN_COVERAGE, record, recording_problem
+    min_cover = MIN_COVERAGE if args.min_coverage is None else args.min_coverage
+    if not 0.0 <= min_cover <= 1.0:
+        raise InputError(f"--min-coverage: expected a share in [0, 1], got {args.min_coverage}")
     world = _load_world(args.world)
     log = record(world, seed=args.seed, noise=args.noise, config=args.config)
     write_log(log, args.out)
     d = log.meta["odometry_drift"]
     print(f"{args.out}: {log.n_scans} scans, {log.gt_t[-1]:.1f} s, {d['distance']:.1f} m driven, "
-          f"ended: {log.meta['ending']}, odometry drift {100 * d['segment_drift']:.1f} % per "
-          f"{d['segment']:.0f} m")
+          f"ended: {log.meta['ending']}, walls seen {100 * log.meta['wall_coverage']:.1f} %, "
+          f"odometry drift {100 * d['segment_drift']:.1f} % per {d['segment']:.0f} m")
+    problem = recording_problem(log.meta, min_cover)
+    if problem:
+        print(f"warning: {args.out}: {problem}", file=sys.stderr)
+        return EXIT_UNTRUSTED_LOG
+    return 0
 
 
-def cmd_show(args) -> None:
+def cmd_show(args) -> int:
     from sim.log import read_log
     from sim.plot import plot_log
     log = read_log(args.log)
@@ -63,24 +82,25 @@ def cmd_show(args) -> None:
     out = args.out or str(Path(args.log).with_suffix(".png"))
     plot_log(log, world, out)
     print(out)
+    return 0
 
 
-def cmd_import(args) -> None:
+def cmd_import(args) -> int:
     from sim.importers import import_log
     from sim.log import write_log
     log = import_log(args.file, fmt=args.format)
     write_log(log, args.out)
     print(f"{args.out}: {log.n_scans} scans, {log.duration:.1f} s")
+    return 0
 
 
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     try:
-        {"record": cmd_record, "show": cmd_show, "import": cmd_import}[args.command](args)
+        return {"record": cmd_record, "show": cmd_show, "import": cmd_import}[args.command](args)
     except InputError as err:
         print(f"error: {err}", file=sys.stderr)
         return 2
-    return 0
 
 
 if __name__ == "__main__":

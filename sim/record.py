@@ -8,6 +8,13 @@ sensors are then computed from those arrays, vectorised: lidar beams cast from p
 interpolated at each beam's time, encoder ticks from the wheel speeds, IMU from the true
 trajectory. Randomness: rng = default_rng(seed), one spawned child per noise source, so
 the same world, seed, profile and config give byte-identical logs.
+
+A log says how the recording went (meta): `ending` ("end": the route was driven;
+"stuck": no progress for the controller's stuck_timeout; "time limit": max_duration ran
+out), `route_length` and `route_driven` (m and share of the route's arc length reached),
+and `wall_coverage`: the share of the true map's occupied cells in which a noise-free beam
+of the log (every beam of every scan, within the lidar's range) ended. `recording_problem`
+turns those into the reason a log cannot be trusted, or None.
 """
 from __future__ import annotations
 
@@ -28,10 +35,14 @@ from sim.robot import DiffDriveRobot, RobotConfig, twist_from_wheels, wheel_spee
 from worlds.model import World
 from worlds.yamlio import InputError, from_dict, load_yaml, to_dict
 
-__all__ = ["RecordConfig", "load_record_config", "record", "SIM_VERSION"]
+__all__ = ["RecordConfig", "load_record_config", "record", "recording_problem", "SIM_VERSION",
+           "MIN_COVERAGE", "ENDINGS"]
 
 # bump when the recorded data for the same world, seed and profile changes
-SIM_VERSION = "2"
+SIM_VERSION = "3"
+# below this share of the true wall cells seen, a log cannot give a complete map
+MIN_COVERAGE = 0.95
+ENDINGS = ("end", "stuck", "time limit")
 
 
 @dataclass(frozen=True)
@@ -93,7 +104,7 @@ def _drive(world: World, route: np.ndarray, cfg: RecordConfig, noise: NoiseProfi
            rng: np.random.Generator):
     """Run the physics. Returns gt (L, 3) (yaw unwrapped, row i at i * physics_dt),
     step_t (C + 1,) control-step boundaries, wheel (C, 2) commanded wheel speeds rad/s,
-    and how the run ended."""
+    how the run ended (one of ENDINGS) and the controller (its progress and path length)."""
     rc = cfg.robot
     start = np.asarray(world.start, dtype=np.float64)
     path = np.vstack([start[:2], route])
@@ -112,7 +123,7 @@ def _drive(world: World, route: np.ndarray, cfg: RecordConfig, noise: NoiseProfi
     slip_chunk = np.empty((0, 2))
     gt = [robot.pose]
     wheel = []
-    ending = "timeout"
+    ending = "time limit"
     drive = robot.drive
     for k in range(n_ctrl_max):
         x, y, a = gt[-1]
@@ -143,7 +154,44 @@ def _drive(world: World, route: np.ndarray, cfg: RecordConfig, noise: NoiseProfi
     # command one physics step later: the wheels turn (and the encoders count) in step
     # with the body, i.e. one step after the command.
     step_t = np.arange(len(wheel) + 1) * dt_c + dt
-    return gt, step_t, wheel, ending
+    return gt, step_t, wheel, ending, ctrl
+
+
+def _seen_share(world: World, origins: np.ndarray, angles: np.ndarray, ranges: np.ndarray,
+                lc: LidarConfig) -> float:
+    """Share of the true map's occupied cells holding the end of a beam within the lidar's
+    range. origins (N, B, 2) m, angles (N, B) rad, ranges (N, B) m, noise-free."""
+    from worlds.coverage import seen_share
+    from worlds.raster import rasterize
+    ok = np.isfinite(ranges) & (ranges >= lc.range_min) & (ranges <= lc.range_max)
+    # a beam ends on the surface: a face on a cell edge belongs to the cell on either side
+    # (worlds.raster takes the floor), so take the points a micrometre before and after it
+    r = ranges[ok][:, None]
+    d = np.stack([np.cos(angles[ok]), np.sin(angles[ok])], axis=1)
+    ends = np.vstack([origins[ok] + (r - 1e-6) * d, origins[ok] + (r + 1e-6) * d])
+    return seen_share(rasterize(world), ends)
+
+
+def recording_problem(meta: Mapping, min_coverage: float = MIN_COVERAGE) -> str | None:
+    """Why a simulated log cannot be trusted (it did not finish its route, or saw less than
+    `min_coverage` of the true wall cells), or None. Logs without these meta keys (real
+    logs, older simulators) pass."""
+    ending = meta.get("ending")
+    if ending == "timeout":           # older logs
+        ending = "time limit"
+    if ending in ("stuck", "time limit"):
+        length = meta.get("route_length")
+        driven = meta.get("route_driven")
+        if length is not None and driven is not None:
+            how = f" after {driven * length:.1f} m of {length:.1f} m"
+        else:
+            how = ""
+        what = "ended stuck" if ending == "stuck" else "hit the time limit"
+        return f"log {what}{how}"
+    cover = meta.get("wall_coverage")
+    if cover is not None and cover < min_coverage:
+        return f"log saw {100 * cover:.1f} % of the wall cells (< {100 * min_coverage:.0f} %)"
+    return None
 
 
 def record(world: World, seed: int = 0, noise: "str | Path | NoiseProfile" = "realistic",
@@ -158,7 +206,7 @@ def record(world: World, seed: int = 0, noise: "str | Path | NoiseProfile" = "re
     route = _route(world)
     rng = np.random.default_rng(seed)
     drive_rng, lidar_rng, imu_rng = rng.spawn(3)
-    gt, step_t, wheel, ending = _drive(world, route, cfg, profile, drive_rng)
+    gt, step_t, wheel, ending, ctrl = _drive(world, route, cfg, profile, drive_rng)
     dt = cfg.physics_dt
     gt_t = np.arange(len(gt)) * dt
     t_end = gt_t[-1]
@@ -172,6 +220,7 @@ def record(world: World, seed: int = 0, noise: "str | Path | NoiseProfile" = "re
     origins, angles = beam_poses(scan_t, gt_t, gt, lc)
     true_ranges = cast_scans(world.segments, origins, angles, np.inf).reshape(n_scans, lc.beams)
     scan_ranges = apply_range_noise(true_ranges, profile.lidar, lc, lidar_rng)
+    coverage = _seen_share(world, origins, angles, true_ranges, lc) if n_scans else 0.0
 
     # wheel odometry from encoder ticks
     odom_t = np.arange(int(math.floor(t_end * cfg.odom_rate + 1e-9)) + 1) / cfg.odom_rate
@@ -199,6 +248,9 @@ def record(world: World, seed: int = 0, noise: "str | Path | NoiseProfile" = "re
         "start_pose": [float(v) for v in start],
         "route": route.tolist(),
         "ending": ending,
+        "route_length": float(ctrl.length),
+        "route_driven": 1.0 if ending == "end" else float(ctrl.s / max(ctrl.length, 1e-9)),
+        "wall_coverage": float(coverage),
         "config": to_dict(cfg),
         "odometry_drift": drift,
     }

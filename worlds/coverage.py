@@ -13,7 +13,7 @@ from worlds.model import World
 from worlds.raster import rasterize
 from worlds.visibility import seen_mask
 
-__all__ = ["wall_coverage", "resample_path", "seen_wall_cells"]
+__all__ = ["wall_coverage", "resample_path", "seen_wall_cells", "seen_share"]
 
 
 def resample_path(path_xy: np.ndarray, step: float = 0.1) -> np.ndarray:
@@ -47,3 +47,16 @@ def wall_coverage(world: World, path_xy: np.ndarray, max_range: float = 3.0, ste
     """
     seen, walls = seen_wall_cells(world, path_xy, max_range, step)
     return float(seen.sum() / max(1, walls.sum()))
+
+
+def seen_share(truth: Grid, points: np.ndarray) -> float:
+    """Fraction of the occupied cells of `truth` that hold at least one of `points`.
+
+    points: (P, 2) m, e.g. the ends of the beams a lidar cast. Returns a float in [0, 1].
+    """
+    walls = truth.occupied()
+    rows, cols = truth.world_to_cell(np.asarray(points, dtype=np.float64).reshape(-1, 2))
+    keep = truth.in_bounds(rows, cols)
+    hit = np.zeros(truth.shape, dtype=bool)
+    hit[rows[keep], cols[keep]] = True
+    return float((hit & walls).sum() / max(1, walls.sum()))

@@ -133,3 +133,64 @@ def test_show_without_a_loadable_world(tmp_path):
     write_log(log, tmp_path / "square.npz")
     assert main(["show", str(tmp_path / "square.npz"), "--out", str(tmp_path / "s.png")]) == 0
     assert (tmp_path / "s.png").stat().st_size > 1000
+
+
+WALLED = """name: walled
+walls:
+  thickness: 0.1
+  polylines:
+    - [[0, 0], [4, 0], [4, 4], [0, 4], [0, 0]]
+    - [[2, 0], [2, 3.2]]
+robot:
+  start: [1.0, 1.0, 0.0]
+route:
+  - [1.5, 1.0]
+  - [3.0, 1.0]
+"""
+
+
+def _warning_line(capsys):
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("warning: ")
+    return err[0]
+
+
+def test_record_of_a_route_the_robot_cannot_finish_warns_and_exits_3(tmp_path, capsys):
+    # the loader accepts the world (the waypoint is reachable round the wall's end), but
+    # pure pursuit drives straight at the wall and gets stuck
+    world = tmp_path / "walled.yaml"
+    world.write_text(WALLED)
+    cfg = tmp_path / "rec.yaml"
+    cfg.write_text("controller: {stuck_timeout: 4.0}\n")
+    out = tmp_path / "log.npz"
+    assert main(["record", "--world", str(world), "--out", str(out), "--config", str(cfg)]) == 3
+    line = _warning_line(capsys)
+    assert str(out) in line and "log ended stuck after" in line and "of 2.0 m" in line
+    log = read_log(out)                                     # written all the same
+    assert log.meta["ending"] == "stuck" and 0.0 < log.meta["route_driven"] < 1.0
+
+
+def test_record_cut_short_by_max_duration_warns_and_exits_3(tmp_path, room_yaml, capsys):
+    cfg = tmp_path / "rec.yaml"
+    cfg.write_text("max_duration: 4.0\n")
+    out = tmp_path / "log.npz"
+    assert main(["record", "--world", str(room_yaml), "--out", str(out), "--config", str(cfg)]) == 3
+    assert "log hit the time limit after" in _warning_line(capsys)
+    log = read_log(out)
+    assert log.meta["ending"] == "time limit" and log.gt_t[-1] == pytest.approx(4.0, abs=0.03)
+
+
+def test_record_that_sees_too_little_of_the_walls_warns(tmp_path, capsys):
+    big = ROOM.replace("[[0, 0], [3, 0], [3, 3], [0, 3], [0, 0]]",
+                       "[[0, 0], [12, 0], [12, 12], [0, 12], [0, 0]]")
+    (tmp_path / "big.yaml").write_text(big)
+    out = tmp_path / "log.npz"
+    assert main(["record", "--world", str(tmp_path / "big.yaml"), "--out", str(out)]) == 3
+    assert "of the wall cells (< 95 %)" in _warning_line(capsys)
+    cover = read_log(out).meta["wall_coverage"]
+    assert 0.0 < cover < 0.95
+    assert main(["record", "--world", str(tmp_path / "big.yaml"), "--out", str(out),
+                 "--min-coverage", f"{cover - 0.01:.3f}"]) == 0
+    assert main(["record", "--world", str(tmp_path / "big.yaml"), "--out", str(out),
+                 "--min-coverage", "2"]) == 2
+    assert "--min-coverage" in _error_line(capsys)

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 import shapely
 
-from sim import RecordConfig, SIM_VERSION, load_record_config, record, write_log
+from sim import RecordConfig, SIM_VERSION, load_record_config, record, recording_problem, write_log
 from sim.odometry import DRIFT_RANGE_REALISTIC
 from worlds.model import ROBOT_RADIUS
 from worlds.yamlio import InputError
@@ -56,6 +56,8 @@ def test_log_layout_and_meta(room_log):
     assert log.meta["noise"]["name"] == "realistic"
     assert log.meta["noise"]["lidar"]["far_accuracy_ratio"] == 0.05
     assert log.meta["start_pose"] == [1.0, 2.0, 0.0]
+    assert log.meta["route_driven"] == 1.0 and log.meta["wall_coverage"] >= 0.95
+    assert log.meta["route_length"] == pytest.approx(5.0)
     np.testing.assert_allclose(log.odom_pose[0], log.meta["start_pose"])
     np.testing.assert_allclose(log.gt_pose[0], log.meta["start_pose"])
     assert log.meta["robot"]["wheel_radius"] == 0.033
@@ -164,6 +166,30 @@ def test_standing_still_gives_a_short_log():
     assert log.meta["ending"] == "end" and log.gt_t[-1] == pytest.approx(1.0)
     assert log.n_scans == 5
     np.testing.assert_allclose(log.gt_pose, np.tile([1.0, 2.0, 0.0], (len(log.gt_t), 1)), atol=1e-12)
+
+
+def test_closed_route_comes_back_to_its_start():
+    # ends where it starts, first leg straight ahead (the case that once never started)
+    world = square_room(start=(1.0, 1.0, 0.0), route=[[3.0, 1.0], [3.0, 3.0], [1.0, 3.0], [1.0, 1.0]])
+    log = record(world, seed=3, noise="realistic")
+    assert log.meta["ending"] == "end" and log.meta["route_driven"] == 1.0
+    assert log.meta["odometry_drift"]["distance"] > 7.5
+    assert np.hypot(*(log.gt_pose[-1, :2] - [1.0, 1.0])) < 0.1
+    assert log.meta["wall_coverage"] >= 0.95 and recording_problem(log.meta) is None
+
+
+def test_recording_problem_names_the_reason():
+    base = {"ending": "end", "route_length": 51.9, "route_driven": 1.0, "wall_coverage": 0.99}
+    assert recording_problem(base) is None
+    assert recording_problem({}) is None                       # a real log: nothing to judge
+    stuck = dict(base, ending="stuck", route_driven=0.0)
+    assert recording_problem(stuck) == "log ended stuck after 0.0 m of 51.9 m"
+    late = dict(base, ending="time limit", route_driven=0.25)
+    assert recording_problem(late) == "log hit the time limit after 13.0 m of 51.9 m"
+    assert recording_problem(dict(base, ending="timeout")).startswith("log hit the time limit")
+    assert recording_problem(dict(base, wall_coverage=0.9)) == \
+        "log saw 90.0 % of the wall cells (< 95 %)"
+    assert recording_problem(dict(base, wall_coverage=0.9), min_coverage=0.8) is None
 
 
 def test_collision_shows_as_odometry_error():

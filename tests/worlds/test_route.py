@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 import shapely
 
-from worlds.coverage import resample_path, seen_wall_cells, wall_coverage
+from worlds.coverage import resample_path, seen_share, seen_wall_cells, wall_coverage
 from worlds.load import list_worlds, load_world, reachable_region, world_from_dict
 from worlds.model import ROBOT_RADIUS
 from worlds.route import _greedy_cover, _order, plan_route, route_for
@@ -83,6 +83,21 @@ def test_wall_coverage_by_hand():
     assert 4 * 12 / 84 <= part <= 4 * 14 / 84
     seen, walls = seen_wall_cells(w, centre, max_range=0.6)
     assert walls.sum() == 84 and not (seen & ~walls).any()
+
+
+def test_seen_share_counts_occupied_cells_holding_a_point():
+    from worlds.raster import rasterize
+    e = 0.075
+    w = world_from_dict({"walls": {"thickness": 0.12, "polylines": [
+        [[-e, -e], [1 + e, -e], [1 + e, 1 + e], [-e, 1 + e], [-e, -e]]]},
+        "robot": {"start": [0.5, 0.5, 0.0]}}, where="room.yaml")
+    truth = rasterize(w)
+    walls = truth.occupied_xy()
+    assert seen_share(truth, walls) == 1.0
+    assert seen_share(truth, walls[:21]) == pytest.approx(21 / 84)
+    # free cells, points outside the grid and repeats add nothing
+    far = np.array([[0.5, 0.5], [50.0, 50.0], walls[0], walls[0]])
+    assert seen_share(truth, far) == pytest.approx(1 / 84)
 
 
 def test_order_matches_brute_force():
