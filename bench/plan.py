@@ -8,6 +8,9 @@ Seeds, for base seed S and repeat r (0-based):
   vary=slam: log seed S,     slam seed S + r
   vary=data: log seed S + r, slam seed S
   vary=both: log seed S + r, slam seed S + r
+With `draws` D > 1 (suites: each world recorded D times with other noise), draw d has log
+seed S + d and `repeats` R runs with slam seeds S .. S + R - 1 (vary must be "slam"); its
+rows are numbered d * R + r and carry `draw` = d.
 """
 from __future__ import annotations
 
@@ -32,7 +35,9 @@ class RunSpec:
 
     worlds: world names or YAML paths; algos: registered algorithm names; repeats >= 1;
     noise: sensor-noise profile name or YAML path; seed: base seed; vary: slam|data|both;
-    configs: algo -> config YAML path (absent: the algorithm's defaults).
+    configs: algo -> config YAML path (absent: the algorithm's defaults); draws >= 1: noise
+    draws per world (module docstring); min_coverage: a log whose lidar saw less of the true
+    walls gives failed rows; suite: the suite's name, for the report ("" outside a suite).
     """
 
     worlds: tuple[str, ...]
@@ -42,12 +47,23 @@ class RunSpec:
     seed: int = 0
     vary: str = "slam"
     configs: dict = field(default_factory=dict)
+    draws: int = 1
+    min_coverage: float = 0.95
+    suite: str = ""
 
     def __post_init__(self):
         if isinstance(self.repeats, bool) or not isinstance(self.repeats, int) or self.repeats < 1:
             raise InputError(f"--repeats must be an integer >= 1, got {self.repeats!r}")
         if self.vary not in VARY:
             raise InputError(f"--vary must be one of {', '.join(VARY)}, got {self.vary!r}")
+        if isinstance(self.draws, bool) or not isinstance(self.draws, int) or self.draws < 1:
+            raise InputError(f"--draws must be an integer >= 1, got {self.draws!r}")
+        if self.draws > 1 and self.vary != "slam":
+            raise InputError(f"--vary {self.vary}: with --draws the noise changes per draw; "
+                             "repeats within a draw vary the SLAM seed only")
+        if isinstance(self.min_coverage, bool) or not isinstance(self.min_coverage, (int, float)) \
+                or not 0.0 <= self.min_coverage <= 1.0:
+            raise InputError(f"--min-coverage must be a share in [0, 1], got {self.min_coverage!r}")
         if not self.worlds:
             raise InputError("no world given")
         if not self.algos:
@@ -74,6 +90,7 @@ class Task:
     repeat: int
     log_seed: int
     slam_seed: int
+    draw: int = 0
 
     @property
     def key(self) -> tuple[str, str, int]:
@@ -102,11 +119,14 @@ def make_tasks(spec: RunSpec, world_keys: list[str] | None = None) -> list[Task]
     """
     keys = list(world_keys) if world_keys is not None else list(spec.worlds)
     tasks = []
-    for r in range(spec.repeats):
-        log_seed, slam_seed = seeds_for(spec.vary, spec.seed, r)
-        for w in keys:
-            for a in spec.algos:
-                tasks.append(Task(w, a, r, log_seed, slam_seed))
+    for d in range(spec.draws):
+        for r in range(spec.repeats):
+            log_seed, slam_seed = seeds_for(spec.vary, spec.seed, r)
+            if spec.draws > 1:
+                log_seed = spec.seed + d
+            for w in keys:
+                for a in spec.algos:
+                    tasks.append(Task(w, a, d * spec.repeats + r, log_seed, slam_seed, d))
     return tasks
 
 

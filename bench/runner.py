@@ -6,6 +6,9 @@ seeds), submits a world's SLAM tasks as soon as its log exists, and stores every
 row at once (results.json rewritten atomically, map and trajectory in
 DIR/maps/<world>/<algo>/<repeat>.npz). Ctrl-C or a dead worker loses nothing stored;
 `resume=True` runs only the rows missing from results.json, with the seeds of run.json.
+A log that cannot be trusted (sim.recording_problem: the robot got stuck, the time limit
+ran out, or the lidar saw less than spec.min_coverage of the true walls) runs no SLAM: its
+rows are stored as failed with the reason, so they show in the report and in no average.
 """
 from __future__ import annotations
 
@@ -24,7 +27,7 @@ from bench.executors import make_executor
 from bench.plan import RunSpec, Task, config_dict, load_config_checked, load_plugins, make_tasks
 from bench.progress import Progress
 from bench.results import RESULTS_NAME, RUN_NAME, ResultStore, jsonable
-from bench.task import WorldInfo, compile_algorithm, execute, record_log, versions
+from bench.task import WorldInfo, compile_algorithm, execute, new_row, record_log, versions
 
 __all__ = ["run_benchmark", "RunOutcome", "load_worlds", "default_out_dir", "read_run",
            "map_path", "truth_path"]
@@ -240,7 +243,18 @@ def run_benchmark(spec: RunSpec, out_dir: str | Path, jobs: int | None = None,
         if log is None:
             log = _read(path)  # cheap next to a SLAM run; gives the true path for the figures
         _save_gt(out_dir, lkey[0], lkey[1], log)
-        submit_tasks(lkey, ex.scatter(log) if remote else str(path))
+        problem = sim.recording_problem(log.meta, spec.min_coverage)
+        if problem is None:
+            submit_tasks(lkey, ex.scatter(log) if remote else str(path))
+            return
+        bar.note(f"{lkey[0]} seed {lkey[1]}: {problem}")
+        for t in by_log[lkey]:
+            row = new_row(t, spec.noise, spec.vary)
+            row.update(status="failed", error=problem, map_file=None,
+                       finished_at=_dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"))
+            store.add(row)
+            outcome.failed += 1
+            bar.advance(t.label + f" ({problem[:50]})", False)
 
     try:
         for lkey in by_log:
@@ -263,7 +277,6 @@ def run_benchmark(spec: RunSpec, out_dir: str | Path, jobs: int | None = None,
                         deferred.clear()
                     continue
                 if kind == "log":
-                    import sim
                     log = ex.result(fut)
                     path = cache.log_path(world_map[what[0]], what[1], spec.noise, world_files[what[0]])
                     sim.write_log(log, path)

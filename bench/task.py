@@ -22,7 +22,7 @@ import numpy as np
 from worlds.grid import Grid
 
 __all__ = ["WorldInfo", "execute", "record_log", "versions", "DIVERGE_MARGIN_M", "TOLERANCES",
-           "check_divergence"]
+           "check_divergence", "new_row"]
 
 # a pose this far outside the world's solid geometry cannot be a working SLAM
 DIVERGE_MARGIN_M = 2.0
@@ -165,6 +165,13 @@ def _score(grid: Grid, truth: Grid) -> dict:
     return out
 
 
+def new_row(task, noise: str = "", vary: str = "slam") -> dict:
+    """The fields every row of `task` (bench.plan.Task) has, status "ok" until told otherwise."""
+    return {"world": task.world, "algo": task.algo, "repeat": int(task.repeat), "status": "ok",
+            "error": None, "log_seed": int(task.log_seed), "slam_seed": int(task.slam_seed),
+            "draw": int(task.draw), "noise": str(noise), "vary": vary, "versions": versions()}
+
+
 def execute(task, world: WorldInfo, log_source, config=None, noise: str = "", vary: str = "slam",
             algo_cls: type | None = None):
     """Run `task` (bench.plan.Task) on the log; return (row, arrays) (see the module docstring).
@@ -176,9 +183,7 @@ def execute(task, world: WorldInfo, log_source, config=None, noise: str = "", va
     or None when the SLAM failed before producing a result.
     """
     t0 = time.perf_counter()
-    row = {"world": task.world, "algo": task.algo, "repeat": int(task.repeat), "status": "ok",
-           "error": None, "log_seed": int(task.log_seed), "slam_seed": int(task.slam_seed),
-           "noise": str(noise), "vary": vary, "versions": versions()}
+    row = new_row(task, noise, vary)
     arrays = None
     try:
         from slam.base import ALGORITHMS, _ensure_builtin_algorithms, register, run_algorithm

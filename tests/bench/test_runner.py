@@ -173,3 +173,65 @@ def test_each_algorithm_is_compiled_once_before_any_task(tiny, tmp_path, monkeyp
     kinds = [k for k, _ in calls]
     assert kinds == ["compile"] * 2 + ["task"] * 4
     assert sorted(a for k, a in calls if k == "compile") == ["fake_diverge", "fake_map"]
+
+
+STUCK_WORLD = """name: walled
+walls:
+  thickness: 0.1
+  polylines:
+    - [[0, 0], [4, 0], [4, 4], [0, 4], [0, 0]]
+    - [[2, 0], [2, 3.2]]
+robot:
+  start: [1.0, 1.0, 0.0]
+route:
+  - [1.5, 1.0]
+  - [3.0, 1.0]
+"""
+
+
+def test_a_stuck_log_gives_failed_rows_with_the_reason(tmp_path, tiny):
+    world = tmp_path / "walled.yaml"
+    world.write_text(STUCK_WORLD)
+    spec = RunSpec(worlds=(str(world), tiny), algos=("fake_map",), repeats=2)
+    out = run_benchmark(spec, tmp_path / "run", jobs=1, progress=False)
+    assert out.complete and (out.ok, out.failed) == (2, 2)
+    rows = {(r["world"], r["repeat"]): r for r in read_rows(tmp_path / "run")}
+    bad = rows[("walled", 0)]
+    assert bad["status"] == "failed" and bad["map_file"] is None and "precision" not in bad
+    assert bad["error"].startswith("log ended stuck after ") and bad["error"].endswith(" of 2.0 m")
+    assert rows[("tiny", 1)]["status"] == "ok"
+    from bench.report import write_report
+    md = write_report(tmp_path / "run", figures=False).read_text()
+    assert "| walled | fake_map | 2/2 | log ended stuck after" in md
+    assert "– (2/2 failed)" in md                             # no average of the stuck log
+
+
+def test_a_log_cut_short_by_the_time_limit_gives_failed_rows(tmp_path, tiny):
+    import sim
+    import worlds
+    w = worlds.load_world(tiny)
+    log = sim.record(w, seed=0, noise="realistic", config={"max_duration": 2.0})
+    sim.write_log(log, cache.log_path(w, 0, "realistic", cache.world_file(tiny)))
+    spec = RunSpec(worlds=(tiny,), algos=("fake_map",), repeats=1)
+    out = run_benchmark(spec, tmp_path / "run", jobs=1, progress=False)
+    assert (out.ok, out.failed) == (0, 1)
+    row = read_rows(tmp_path / "run")[0]
+    assert row["error"].startswith("log hit the time limit after ")
+    # the same log passes once the cache holds a complete one
+    cache.log_path(w, 0, "realistic", cache.world_file(tiny)).unlink()
+    out = run_benchmark(spec, tmp_path / "run2", jobs=1, progress=False)
+    assert (out.ok, out.failed) == (1, 0)
+
+
+def test_draws_record_each_world_with_other_noise(tiny, tmp_path):
+    spec = RunSpec(worlds=(tiny,), algos=("fake_map",), repeats=2, draws=3)
+    out = run_benchmark(spec, tmp_path / "run", jobs=1, progress=False)
+    assert out.complete and out.ok == 6
+    rows = read_rows(tmp_path / "run")
+    got = sorted((r["repeat"], r["draw"], r["log_seed"], r["slam_seed"]) for r in rows)
+    assert got == [(0, 0, 0, 0), (1, 0, 0, 1), (2, 1, 1, 0), (3, 1, 1, 1), (4, 2, 2, 0),
+                   (5, 2, 2, 1)]
+    with pytest.raises(InputError, match="--vary data"):
+        RunSpec(worlds=(tiny,), algos=("fake_map",), draws=2, vary="data")
+    with pytest.raises(InputError, match="--draws"):
+        RunSpec(worlds=(tiny,), algos=("fake_map",), draws=0)
