@@ -15,7 +15,16 @@ def build_parser() -> argparse.ArgumentParser:
 
     r = sub.add_parser("run", help="run worlds x algorithms x repeats, write results and report")
     r.add_argument("--world", help="world name(s) or YAML file(s), comma-separated, or 'all'")
-    r.add_argument("--repeats", type=int, help="runs per world and algorithm (default 10)")
+    r.add_argument("--suite", metavar="NAME|FILE",
+                   help="a suite of worlds (shipped: general) or a suite YAML file; each world is "
+                        "recorded with --draws noise draws")
+    r.add_argument("--draws", type=int,
+                   help="noise draws per world (default: the suite's, 3; 1 without a suite)")
+    r.add_argument("--min-coverage", type=float, metavar="SHARE",
+                   help="a log whose lidar saw less than this share of the true wall cells gives "
+                        "failed rows (default 0.95)")
+    r.add_argument("--repeats", type=int,
+                   help="runs per world, algorithm and draw (default 10; 1 with --suite)")
     r.add_argument("--algo", help="comma-separated algorithms (default: all registered)")
     r.add_argument("--noise", help="sensor-noise profile name or YAML (default realistic)")
     r.add_argument("--seed", type=int, help="base seed (default 0)")
@@ -50,25 +59,44 @@ def build_parser() -> argparse.ArgumentParser:
 def _spec_from_args(args):
     from bench.plan import RunSpec, parse_configs, parse_worlds, resolve_algos
     from bench.runner import read_run
+    if args.world and args.suite:
+        raise InputError("give either --world or --suite, not both")
+    given = (args.world, args.suite, args.draws, args.min_coverage, args.algo, args.repeats,
+             args.seed, args.noise, args.vary)
     if args.resume:
         stored = RunSpec.from_json(read_run(Path(args.resume))["spec"])
-        if args.world is None and args.algo is None and args.repeats is None and args.seed is None \
-                and args.noise is None and args.vary is None and not args.config:
+        if all(v is None for v in given) and not args.config:
             return stored
         base = stored
     else:
-        if not args.world:
-            raise InputError("run: --world is required (a name, a YAML file, a list or 'all')")
+        if not args.world and not args.suite:
+            raise InputError("run: --world or --suite is required (a world name, a YAML file, a "
+                             "list or 'all'; or a suite such as 'general')")
         base = None
+    suite = None
+    if args.suite:
+        from bench.suite import load_suite
+        suite = load_suite(args.suite)
     algos = resolve_algos(args.algo) if args.algo is not None or base is None else list(base.algos)
+    if suite is not None:
+        worlds, suite_name = suite.worlds, suite.name
+        draws, repeats = suite.draws, 1
+    elif args.world:
+        worlds, suite_name, draws, repeats = tuple(parse_worlds(args.world)), "", 1, 10
+    else:
+        worlds, suite_name, draws, repeats = base.worlds, base.suite, base.draws, base.repeats
     return RunSpec(
-        worlds=tuple(parse_worlds(args.world)) if args.world else base.worlds,
+        worlds=worlds,
         algos=tuple(algos),
-        repeats=args.repeats if args.repeats is not None else (base.repeats if base else 10),
+        repeats=args.repeats if args.repeats is not None else repeats,
         noise=args.noise or (base.noise if base else "realistic"),
         seed=args.seed if args.seed is not None else (base.seed if base else 0),
         vary=args.vary or (base.vary if base else "slam"),
         configs=parse_configs(args.config, algos) if args.config else (base.configs if base else {}),
+        draws=args.draws if args.draws is not None else draws,
+        min_coverage=args.min_coverage if args.min_coverage is not None else
+        (base.min_coverage if base else 0.95),
+        suite=suite_name,
     )
 
 
@@ -79,6 +107,8 @@ def cmd_run(args, argv) -> int:
         raise InputError(f"--repeats must be >= 1, got {args.repeats}")
     if args.jobs is not None and args.jobs < 1:
         raise InputError(f"--jobs must be >= 1, got {args.jobs}")
+    if args.draws is not None and args.draws < 1:
+        raise InputError(f"--draws must be >= 1, got {args.draws}")
     if args.resume and args.out and Path(args.out) != Path(args.resume):
         raise InputError("give either --resume DIR or --out DIR, not both")
     spec = _spec_from_args(args)

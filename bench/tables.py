@@ -6,6 +6,11 @@ same at a tolerance of 1 cell, ATE, RPE and the real-time factor; the oracle (ma
 true poses) is the last column: the ceiling a SLAM could reach with perfect poses.
 Statistics use the rows with status "ok"; std is the sample standard deviation (ddof=1,
 0 for a single repeat); failures are counted in their own table.
+A run with several noise draws per world (a suite) also gets, per world, the mean and std
+over the draws (each draw first averaged over its repeats), the oracle's score as the
+world's ceiling and each algorithm's gap to it, and an overall table: the mean over worlds.
+Whenever the study's seven worlds are in the run, the study's published numbers (bench.study)
+stand beside ours.
 """
 from __future__ import annotations
 
@@ -19,7 +24,7 @@ import numpy as np
 from worlds.yamlio import atomic_write_text
 
 __all__ = ["aggregate", "summary_markdown", "summary_csv", "write_tables", "mean_std",
-           "algo_order", "world_order", "CSV_METRICS"]
+           "algo_order", "world_order", "CSV_METRICS", "over_draws", "draw_means"]
 
 # metric -> (label, decimals) of every metric in summary.csv
 CSV_METRICS = {
@@ -75,6 +80,131 @@ def aggregate(rows: list[dict]) -> dict[tuple[str, str], dict]:
     return out
 
 
+def draw_means(rows: list[dict], metric: str) -> dict[tuple[str, str], dict[int, float]]:
+    """(world, algo) -> {draw: mean of `metric` over the draw's ok rows}; draws with no ok
+    row are absent."""
+    per_draw: dict[tuple[str, str, int], list] = {}
+    for r in rows:
+        if r.get("status") == "ok":
+            per_draw.setdefault((r["world"], r["algo"], int(r.get("draw", 0))), []).append(r.get(metric))
+    out: dict[tuple[str, str], dict[int, float]] = {}
+    for (w, a, d), vals in sorted(per_draw.items()):
+        m, _, n = mean_std(vals)
+        if n:
+            out.setdefault((w, a), {})[d] = m
+    return out
+
+
+def over_draws(rows: list[dict], metric: str) -> dict[tuple[str, str], tuple[float, float, int]]:
+    """(world, algo) -> (mean, sample std, n) over noise draws of `metric`: each draw's ok rows
+    averaged first, draws with no ok row left out."""
+    return {k: mean_std(v.values()) for k, v in draw_means(rows, metric).items()}
+
+
+def _gap(ceiling: dict[int, float] | None, mine: dict[int, float] | None) -> float | None:
+    """Mean over the draws both have of ceiling - mine (None if they share no draw)."""
+    common = sorted(set(ceiling or {}) & set(mine or {}))
+    return float(np.mean([ceiling[d] - mine[d] for d in common])) if common else None
+
+
+def _draw_sections(worlds, algos, rows: list[dict]) -> list[str]:
+    """Per-world mean ± std over draws, the gap to the oracle, and the mean over worlds."""
+    stats = {m: over_draws(rows, m) for m in ("precision", "sensitivity", "adnn_cells", "ate_m")}
+    per_draw = {m: draw_means(rows, m) for m in ("precision", "sensitivity")}
+    failed: dict[tuple[str, str], int] = {}
+    total: dict[tuple[str, str], int] = {}
+    for r in rows:
+        k = (r["world"], r["algo"])
+        total[k] = total.get(k, 0) + 1
+        failed[k] = failed.get(k, 0) + (r.get("status") != "ok")
+    ps = [("precision", "P"), ("sensitivity", "S")]
+    head = [f"{_head(a)} {lab}" for a in algos for _, lab in ps]
+    out = ["## Across noise draws: precision (P) and sensitivity (S), mean ± std over draws", "",
+           "| world | " + " | ".join(head) + " |", "|---" * (len(head) + 1) + "|"]
+    for w in worlds:
+        cells = []
+        for a in algos:
+            for m, _ in ps:
+                c = _cell(stats[m].get((w, a), (math.nan, math.nan, 0)), 3)
+                if m == "precision" and failed.get((w, a)):
+                    c += f" ({failed[(w, a)]}/{total[(w, a)]} failed)"
+                cells.append(c)
+        out.append(f"| {w} | " + " | ".join(cells) + " |")
+    out.append("")
+    slams = [a for a in algos if a != "oracle"]
+    gaps: dict[tuple[str, str, str], float] = {}
+    if "oracle" in algos and slams:
+        head = [f"{a} {lab}" for a in slams for _, lab in ps]
+        out += ["## Gap to the ceiling: oracle − algorithm, mean over the draws both finished "
+                "(lower is better)", "",
+                "| world | " + " | ".join(head) + " |", "|---" * (len(head) + 1) + "|"]
+        for w in worlds:
+            cells = []
+            for a in slams:
+                for m, _ in ps:
+                    g = _gap(per_draw[m].get((w, "oracle")), per_draw[m].get((w, a)))
+                    if g is None:
+                        cells.append("–")
+                    else:
+                        gaps[(w, a, m)] = g
+                        cells.append(f"{g:+.3f}")
+            out.append(f"| {w} | " + " | ".join(cells) + " |")
+        out.append("")
+    out += ["## Overall: mean over worlds of the per-world means", "",
+            "Worlds where an algorithm has no successful draw are left out of its means "
+            "and counted under 'worlds'.", "",
+            "| algorithm | worlds | P | S | gap P | gap S | ADNN (cells) | ATE (m) | failed rows |",
+            "|---|---|---|---|---|---|---|---|---|"]
+    for a in algos:
+        def avg(metric, fmt):
+            vals = [stats[metric][(w, a)][0] for w in worlds if (w, a) in stats[metric]]
+            return (fmt.format(float(np.mean(vals))) if vals else "–"), len(vals)
+        p, n_w = avg("precision", "{:.3f}")
+        sens, _ = avg("sensitivity", "{:.3f}")
+        adnn, _ = avg("adnn_cells", "{:.2f}")
+        ate, _ = avg("ate_m", "{:.3f}")
+        gp = [gaps[(w, a, "precision")] for w in worlds if (w, a, "precision") in gaps]
+        gs = [gaps[(w, a, "sensitivity")] for w in worlds if (w, a, "sensitivity") in gaps]
+        gap_p = f"{np.mean(gp):+.3f}" if gp else "–"
+        gap_s = f"{np.mean(gs):+.3f}" if gs else "–"
+        n_fail = sum(failed.get((w, a), 0) for w in worlds)
+        n_all = sum(total.get((w, a), 0) for w in worlds)
+        out.append(f"| {_head(a)} | {n_w}/{len(worlds)} | {p} | {sens} | {gap_p} | {gap_s} | "
+                   f"{adnn} | {ate} | {n_fail}/{n_all} |")
+    out.append("")
+    return out
+
+
+def _study_sections(worlds, algos, agg) -> list[str]:
+    """Our algorithms beside the study's algorithm of the same family, on the study worlds."""
+    from bench.study import FAMILY, STUDY, STUDY_WORLDS
+    shown = [w for w in STUDY_WORLDS if w in worlds]
+    ours = [a for a in FAMILY if a in algos]
+    if not shown or not ours:
+        return []
+    head = []
+    for a in ours:
+        head += [f"{FAMILY[a]} (study)", a]
+    out = ["## Beside the reference study (Zi et al., Tables 1-2)", "",
+           "The study ran Gmapping, Hector and Cartographer in ROS on one Gazebo log per world, "
+           "10 runs each; its numbers stand beside our algorithm of the same family. Ours: mean "
+           "± std over every successful row of this run (all draws and repeats).", ""]
+    for title, metrics, dec in (("Precision / sensitivity", ("precision", "sensitivity"), 3),
+                                ("ADNN (cells)", ("adnn_cells",), 2)):
+        out += [f"### {title}", "", "| world | " + " | ".join(head) + " |",
+                "|---" * (len(head) + 1) + "|"]
+        for w in shown:
+            cells = []
+            for a in ours:
+                theirs = STUDY[FAMILY[a]]
+                cells.append(" / ".join(f"{theirs[m][w][0]:.{min(dec, 2)}f}" for m in metrics))
+                g = agg.get((w, a))
+                cells.append(" / ".join(_cell(g[m], dec) for m in metrics) if g else "–")
+            out.append(f"| {w} | " + " | ".join(cells) + " |")
+        out.append("")
+    return out
+
+
 def _cell(stat, decimals: int) -> str:
     mean, std, n = stat
     if n == 0 or not math.isfinite(mean):
@@ -113,10 +243,14 @@ def summary_markdown(rows: list[dict], run: dict | None = None,
     spec = (run or {}).get("spec", {})
     n_ok = sum(r.get("status") == "ok" for r in rows)
     out = ["# Benchmark summary", ""]
+    draws = int(spec.get("draws", 1) or 1)
     if spec:
-        out.append(f"Worlds: {', '.join(worlds)}. Algorithms: {', '.join(algos)}. "
-                   f"Repeats: {spec.get('repeats')} (vary {spec.get('vary')}, base seed "
-                   f"{spec.get('seed')}, noise {spec.get('noise')}).")
+        suite = f"Suite: {spec['suite']}. " if spec.get("suite") else ""
+        drawn = f"Noise draws per world: {draws} (log seeds {spec.get('seed')}.." \
+                f"{spec.get('seed', 0) + draws - 1}). " if draws > 1 else ""
+        out.append(f"{suite}Worlds: {', '.join(worlds)}. Algorithms: {', '.join(algos)}. {drawn}"
+                   f"Repeats: {spec.get('repeats')}{' per draw' if draws > 1 else ''} (vary "
+                   f"{spec.get('vary')}, base seed {spec.get('seed')}, noise {spec.get('noise')}).")
     vers = (run or {}).get("versions")
     if vers:
         out.append("Versions: " + ", ".join(f"{k} {v}" for k, v in vers.items()) + ".")
@@ -134,6 +268,9 @@ def summary_markdown(rows: list[dict], run: dict | None = None,
         ("Real-time factor (log duration / wall time; > 1 is faster than real time)",
          [("realtime_factor", "")], 1),
     ]
+    if draws > 1 or any(int(r.get("draw", 0)) > 0 for r in rows):
+        out += _draw_sections(worlds, algos, rows)
+    out += _study_sections(worlds, algos, agg)
     for title, metrics, dec in sections:
         out += [f"## {title}", "", _table(worlds, algos, agg, metrics, dec), ""]
     failed = [(k, g) for k, g in agg.items() if g["failed"]]

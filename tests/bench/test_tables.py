@@ -63,3 +63,54 @@ def test_csv_one_line_per_world_and_algo():
     assert pf["n"] == "3" and pf["failed"] == "1"
     assert float(pf["adnn_cells_mean"]) == pytest.approx(1.5)
     assert pf["ate_start_m_mean"] == ""
+
+
+def _draw_rows():
+    """Two worlds x (pf, oracle) x 3 draws x 2 repeats; pf's draw 2 on 'hall' failed."""
+    rows = []
+    for w in ("swirl_s", "hall"):
+        for a, p in (("pf", 0.7), ("oracle", 0.95)):
+            for d in range(3):
+                for r in range(2):
+                    row = {"world": w, "algo": a, "repeat": 2 * d + r, "draw": d, "status": "ok",
+                           "precision": p + 0.1 * d + 0.02 * r, "sensitivity": p,
+                           "adnn_cells": 1.0, "ate_m": 0.1}
+                    if (w, a, d) == ("hall", "pf", 2):
+                        row = {"world": w, "algo": a, "repeat": 2 * d + r, "draw": d,
+                               "status": "failed", "error": "log ended stuck after 1.0 m of 9.0 m"}
+                    rows.append(row)
+    return rows
+
+
+def test_over_draws_averages_each_draw_first():
+    from bench.tables import over_draws
+    st = over_draws(_draw_rows(), "precision")
+    m, s, n = st[("swirl_s", "pf")]
+    assert n == 3 and m == pytest.approx(0.81) and s == pytest.approx(0.1)
+    m, s, n = st[("hall", "pf")]                   # the stuck draw is left out
+    assert n == 2 and m == pytest.approx(0.76)
+
+
+def test_summary_of_a_run_with_draws_has_ceiling_gap_and_overall_tables():
+    run = {"spec": {"suite": "mine", "draws": 3, "repeats": 2, "seed": 0, "vary": "slam",
+                    "noise": "realistic"}, "worlds": {"swirl_s": {}, "hall": {}}}
+    md = summary_markdown(_draw_rows(), run)
+    assert "Suite: mine." in md and "Noise draws per world: 3 (log seeds 0..2)" in md
+    assert "## Across noise draws" in md
+    assert "| swirl_s | 0.810 ± 0.100 | 0.700 ± 0.000 | 1.060 ± 0.100 |" in md
+    assert "0.760 ± 0.071 (2/6 failed)" in md
+    assert "| swirl_s | +0.250 | +0.250 |" in md             # oracle − pf
+    # overall: pf's mean over worlds of (0.81, 0.76); gap (0.25 + 0.25) / 2
+    assert "| pf | 2/2 | 0.785 | 0.700 | +0.250 | +0.250 | 1.00 | 0.100 | 2/12 |" in md
+    assert "| oracle (ceiling) | 2/2 |" in md
+
+
+def test_study_numbers_stand_beside_ours_on_the_study_worlds():
+    md = summary_markdown(_rows())
+    assert "## Beside the reference study" in md
+    # swirl_s: Gmapping 0.39 / 0.46 beside pf's 0.800 / 0.700; Hector 0.89 / 1.00 beside gn
+    assert "| swirl_s | 0.39 / 0.46 | 0.800 ± 0.141 / 0.700 ± 0.000 | 0.89 / 1.00 |" in md
+    assert "| rectangle_s | 0.44 | 2.50 ± 0.14 | 0.14 | 3.00 ± 0.14 |" in md
+    # no study world, no study table
+    other = [dict(r, world="hall") for r in _rows()]
+    assert "reference study" not in summary_markdown(other)

@@ -1,0 +1,158 @@
+"""Suites: a named list of worlds, each recorded with several noise draws (`bench run --suite`).
+
+A suite file is YAML:
+
+    name: general                    # optional, default: the file's stem
+    description: ...                 # optional
+    draws: 3                         # noise draws per world (optional, default 3)
+    worlds:
+      - rectangle_s                  # a shipped world
+      - ../my_worlds/office.yaml     # a world file, relative to the suite file
+      - {generate: office, seed: 0}  # a generated world (python -m worlds generate)
+      - {generate: hall, seed: 1, size: [9, 7]}
+
+Shipped suites live in bench/suites/ and are named without the extension. Generated worlds
+are written once to the log cache's `generated/` folder (keyed by the generator's code, so
+an edited generator writes new files) and run from there like any world file.
+"""
+from __future__ import annotations
+
+import hashlib
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from worlds.yamlio import InputError, _suggest, atomic_write_text, load_yaml
+
+__all__ = ["Suite", "load_suite", "list_suites", "suite_dir", "DEFAULT_DRAWS"]
+
+DEFAULT_DRAWS = 3
+_KEYS = ["name", "description", "draws", "worlds"]
+_GENERATE_KEYS = ["generate", "seed", "size"]
+
+
+@dataclass(frozen=True)
+class Suite:
+    """name; description; draws >= 1; worlds: shipped names or absolute YAML paths."""
+
+    name: str
+    description: str
+    draws: int
+    worlds: tuple[str, ...]
+    source: str = ""
+
+
+def suite_dir() -> Path:
+    """The folder of the shipped suites."""
+    return Path(__file__).resolve().parent / "suites"
+
+
+def list_suites() -> list[str]:
+    """Names of the shipped suites, sorted."""
+    return sorted(p.stem for p in suite_dir().glob("*.yaml"))
+
+
+def load_suite(name_or_path: str) -> Suite:
+    """A shipped suite by name ('general') or a suite YAML file; InputError naming the file
+    and the field for anything wrong, including a world that does not exist."""
+    s = str(name_or_path)
+    p = Path(s).expanduser()
+    if p.suffix.lower() not in (".yaml", ".yml") and "/" not in s:
+        p = suite_dir() / f"{s}.yaml"
+        if not p.is_file():
+            raise InputError(f"--suite {s}: no such suite (shipped: {', '.join(list_suites())}; "
+                             "or give a path to a suite .yaml file)")
+    elif not p.is_file():
+        raise InputError(f"--suite {s}: file not found")
+    where = str(p) if p.parent != suite_dir() else p.name
+    data = load_yaml(p)
+    if not isinstance(data, dict):
+        raise InputError(f"{where}: top level: expected a mapping with keys {', '.join(_KEYS)}")
+    for key in data:
+        if key not in _KEYS:
+            raise InputError(f"{where}: {key}: unknown key{_suggest(str(key), _KEYS)}")
+    name = data.get("name", p.stem)
+    if not isinstance(name, str) or not name.strip():
+        raise InputError(f"{where}: name: expected a string, got {name!r}")
+    desc = data.get("description") or ""
+    if not isinstance(desc, str):
+        raise InputError(f"{where}: description: expected a string, got {desc!r}")
+    draws = data.get("draws", DEFAULT_DRAWS)
+    if isinstance(draws, bool) or not isinstance(draws, int) or draws < 1:
+        raise InputError(f"{where}: draws: expected an integer >= 1, got {draws!r}")
+    items = data.get("worlds")
+    if not isinstance(items, list) or not items:
+        raise InputError(f"{where}: worlds: expected a non-empty list of worlds")
+    worlds = []
+    for i, item in enumerate(items):
+        w = _world(item, where, f"worlds[{i}]", p.parent)
+        if w not in worlds:
+            worlds.append(w)
+    return Suite(name.strip(), desc, draws, tuple(worlds), str(p))
+
+
+def _world(item: Any, where: str, field: str, base: Path) -> str:
+    """One entry of `worlds` -> a shipped world name or an absolute YAML path (checked)."""
+    from worlds.load import list_worlds, load_world
+    if isinstance(item, dict):
+        return _generated(item, where, field)
+    if not isinstance(item, str) or not item.strip():
+        raise InputError(f"{where}: {field}: expected a world name, a .yaml path or "
+                         f"{{generate: KIND, seed: S}}, got {item!r}")
+    item = item.strip()
+    if Path(item).suffix.lower() in (".yaml", ".yml") or "/" in item:
+        p = (base / Path(item).expanduser()).resolve()
+        if not p.is_file():
+            raise InputError(f"{where}: {field}: world file {p} not found")
+        ref = str(p)
+    else:
+        if item not in list_worlds():
+            raise InputError(f"{where}: {field}: no such world '{item}'"
+                             f"{_suggest(item, list_worlds())}")
+        ref = item
+    try:
+        load_world(ref)
+    except InputError as err:
+        raise InputError(f"{where}: {field}: {err}") from None
+    return ref
+
+
+def _generator_key() -> str:
+    """Digest of the code that decides a generated world's bytes (generator, route planner)."""
+    import worlds.generate
+    import worlds.route
+    h = hashlib.sha256()
+    for mod in (worlds.generate, worlds.route):
+        h.update(Path(mod.__file__).read_bytes())
+    return h.hexdigest()[:12]
+
+
+def _generated(item: dict, where: str, field: str) -> str:
+    """Write (once) the world a {generate, seed, size} entry stands for; its YAML path."""
+    from worlds.generate import generate_yaml
+    from bench.cache import cache_dir
+    for key in item:
+        if key not in _GENERATE_KEYS:
+            raise InputError(f"{where}: {field}.{key}: unknown key{_suggest(str(key), _GENERATE_KEYS)}")
+    if "generate" not in item:
+        raise InputError(f"{where}: {field}.generate: missing (the kind of world to generate)")
+    seed = item.get("seed", 0)
+    if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
+        raise InputError(f"{where}: {field}.seed: expected an integer >= 0, got {seed!r}")
+    size = item.get("size")
+    if size is not None:
+        if (not isinstance(size, list) or len(size) != 2
+                or any(isinstance(v, bool) or not isinstance(v, (int, float)) for v in size)):
+            raise InputError(f"{where}: {field}.size: expected [width, height] in m, got {size!r}")
+        size = (float(size[0]), float(size[1]))
+    kind = item["generate"]
+    key = hashlib.sha256(f"{kind}|{seed}|{size}|{_generator_key()}".encode()).hexdigest()[:16]
+    out = cache_dir() / "generated" / f"{kind}-s{seed}-{key}.yaml"
+    if not out.is_file():
+        try:
+            text = generate_yaml(str(kind), seed, size)
+        except InputError as err:
+            raise InputError(f"{where}: {field}: {err}") from None
+        out.parent.mkdir(parents=True, exist_ok=True)
+        atomic_write_text(out, text)
+    return str(out)
