@@ -1,4 +1,5 @@
-"""Command line: python -m worlds list | show NAME|FILE [--out PNG] | render NAME|FILE --out DIR."""
+"""Command line: python -m worlds list [PATH ...] | show NAME|FILE [--out PNG] |
+render NAME|FILE --out DIR | generate KIND --seed S [--size WxH] --out FILE.yaml."""
 from __future__ import annotations
 
 import argparse
@@ -11,7 +12,9 @@ from worlds.yamlio import InputError
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="python -m worlds", description="YAML worlds and their true maps.")
     sub = p.add_subparsers(dest="command", required=True)
-    sub.add_parser("list", help="the shipped worlds: name, size, wall length, route given")
+    ls = sub.add_parser("list", help="worlds: name (or file), size, wall length, route given")
+    ls.add_argument("paths", nargs="*", metavar="PATH",
+                    help="world .yaml files or folders (every *.yaml in them); default: the shipped worlds")
     s = sub.add_parser("show", help="PNG of a world's walls, start pose and route")
     s.add_argument("world", help="a shipped world name or a path to a world .yaml")
     s.add_argument("--out", help="PNG path (default: NAME.png in the current folder)")
@@ -22,19 +25,48 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--out", required=True, help="output folder")
     r.add_argument("--resolution", type=float, default=None, help="cell size in m (default: the world's)")
     r.add_argument("--png", action="store_true", help="also write DIR/NAME.png for people")
+    g = sub.add_parser("generate", help="write a procedurally drawn world (same arguments, same file)")
+    g.add_argument("kind", help="office | warehouse | hall | loop")
+    g.add_argument("--seed", type=int, required=True, help="non-negative integer")
+    g.add_argument("--size", help="WxH in metres, e.g. 10x8 (default per kind: office 10x8, "
+                                  "warehouse 12x9, hall 9x7, loop 12x8)")
+    g.add_argument("--out", required=True, help="the world .yaml to write (folders are created)")
     return p
 
 
-def cmd_list() -> list[str]:
-    """One line per shipped world: name, interior size, wall length, route."""
+def cmd_list(paths: list[str] = ()) -> list[str]:
+    """One line per world: name (the file for PATH arguments), interior size, wall length, route.
+
+    paths: world .yaml files or folders (every *.yaml in them); none: the shipped worlds.
+    """
     from worlds.load import list_worlds, load_world
-    lines = [f"{'name':14s} {'size (m)':>13s} {'walls (m)':>9s}  route"]
-    for name in list_worlds():
-        w = load_world(name)
+    labels = [str(p) for p in _yaml_files(paths)] if paths else list_worlds()
+    width = max([14] + [len(label) for label in labels])
+    lines = [f"{'file' if paths else 'name':{width}s} {'size (m)':>13s} {'walls (m)':>9s}  route"]
+    for label in labels:
+        w = load_world(label)
         minx, miny, maxx, maxy = w.free_space.bounds
         route = f"{len(w.route)} waypoints" if w.route is not None else "planned"
-        lines.append(f"{name:14s} {maxx - minx:6.2f} x {maxy - miny:5.2f} {w.wall_length:9.2f}  {route}")
+        size = f"{maxx - minx:6.2f} x {maxy - miny:5.2f}"
+        lines.append(f"{label:{width}s} {size} {w.wall_length:9.2f}  {route}")
     return lines
+
+
+def _yaml_files(paths: list[str]) -> list[Path]:
+    """The files among `paths` and every *.yaml in the folders among them, in order given."""
+    out = []
+    for arg in paths:
+        p = Path(arg)
+        if p.is_dir():
+            found = sorted(p.glob("*.yaml"))
+            if not found:
+                raise InputError(f"{p}: no .yaml files in this folder")
+            out += found
+        elif p.is_file():
+            out.append(p)
+        else:
+            raise InputError(f"{p}: no such file or folder")
+    return out
 
 
 def cmd_show(world_arg: str, out: str | None, planned: bool = False) -> Path:
@@ -70,11 +102,36 @@ def cmd_render(world_arg: str, out: str, resolution: float | None = None, png: b
     return yp
 
 
+def cmd_generate(kind: str, seed: int, size: str | None, out: str) -> tuple[Path, str]:
+    """Write the generated world to `out` (atomically); returns its path and a one-line summary."""
+    import numpy as np
+
+    from worlds.generate import generate_yaml, parse_size
+    from worlds.load import load_world
+    from worlds.yamlio import atomic_write_text
+    path = Path(out)
+    if path.suffix.lower() not in (".yaml", ".yml"):
+        raise InputError(f"--out: expected a .yaml file, got {out!r}")
+    if path.is_dir():
+        raise InputError(f"--out: {out} is a folder; give a .yaml file")
+    text = generate_yaml(kind, seed, parse_size(size) if size is not None else None)
+    atomic_write_text(path, text)
+    w = load_world(path)
+    minx, miny, maxx, maxy = w.free_space.bounds
+    length = float(np.hypot(*np.diff(np.vstack([w.start[:2], w.route]), axis=0).T).sum())
+    return path, (f"{w.name}: {maxx - minx:.2f} x {maxy - miny:.2f} m inside, {len(w.walls)} walls "
+                  f"({w.wall_length:.1f} m), {len(w.obstacles)} obstacles, route {length:.1f} m "
+                  f"({len(w.route)} waypoints)")
+
+
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     try:
         if args.command == "list":
-            print("\n".join(cmd_list()))
+            print("\n".join(cmd_list(args.paths)))
+        elif args.command == "generate":
+            path, summary = cmd_generate(args.kind, args.seed, args.size, args.out)
+            print(f"{path}: {summary}")
         elif args.command == "show":
             print(cmd_show(args.world, args.out, args.planned))
         else:

@@ -1,7 +1,7 @@
 """World YAML -> World, with errors that name the file, the field and the problem.
 
 Schema (DESIGN.md): name, description, resolution, walls {thickness, polylines},
-obstacles [{polygon} | {circle: {center, radius}} | {box: {center, size, yaw}}],
+obstacles [{polygon} | {circle: {center, radius, sides}} | {box: {center, size, yaw}}],
 robot {start: [x, y, yaw]}, route [[x, y], ...].  Besides the types, a world is checked
 for: a free region enclosed by walls around the start; a start pose at least the robot
 radius (0.105 m) from every wall; route waypoints that the robot's centre can reach from
@@ -141,9 +141,14 @@ def _obstacles(v: Any, where: str) -> tuple:
         if kind == "polygon":
             params = {"points": _points(val, where, f, 3).tolist()}
         elif kind == "circle":
-            val = _mapping(val, where, f, ["center", "radius"], ["center", "radius"])
+            val = _mapping(val, where, f, ["center", "radius", "sides"], ["center", "radius"])
             params = {"center": _point(val["center"], where, f"{f}.center"),
                       "radius": _pos(val["radius"], where, f"{f}.radius")}
+            if "sides" in val:
+                sides = val["sides"]
+                if isinstance(sides, bool) or not isinstance(sides, int) or sides < 8:
+                    raise InputError(f"{where}: {f}.sides: expected an integer >= 8, got {sides!r}")
+                params["sides"] = sides
         else:
             val = _mapping(val, where, f, ["center", "size", "yaw"], ["center", "size"])
             size = _point(val["size"], where, f"{f}.size")

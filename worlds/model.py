@@ -53,7 +53,12 @@ def make_obstacle(kind: str, params: dict) -> Obstacle:
     if kind == "polygon":
         poly = Polygon(np.asarray(params["points"], dtype=float))
     elif kind == "circle":
-        poly = Point(params["center"]).buffer(params["radius"], quad_segs=_CIRCLE_QUAD_SEGS)
+        if params.get("sides") is not None:   # a regular polygon: fewer segments to ray cast
+            a = 2.0 * np.pi * np.arange(int(params["sides"])) / int(params["sides"])
+            ring = np.asarray(params["center"]) + params["radius"] * np.stack([np.cos(a), np.sin(a)], 1)
+            poly = Polygon(ring)
+        else:
+            poly = Point(params["center"]).buffer(params["radius"], quad_segs=_CIRCLE_QUAD_SEGS)
     elif kind == "box":
         cx, cy = params["center"]
         sx, sy = params["size"]

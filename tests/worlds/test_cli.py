@@ -67,3 +67,41 @@ def test_module_entry_point(tmp_path):
     r = subprocess.run([sys.executable, "-m", "worlds", "render", "nope", "--out", str(tmp_path)],
                        capture_output=True, text=True)
     assert r.returncode == 2 and r.stderr.startswith("error: nope: no such world")
+
+
+@pytest.fixture(scope="module")
+def generated(tmp_path_factory):
+    """A folder holding two small generated worlds."""
+    d = tmp_path_factory.mktemp("generated")
+    for kind, seed in (("loop", 0), ("hall", 1)):
+        out = d / f"{kind}.yaml"
+        assert main(["generate", kind, "--seed", str(seed), "--size", "5x4", "--out", str(out)]) == 0
+    return d
+
+
+def test_list_files_and_folders(generated, capsys):
+    capsys.readouterr()
+    assert main(["list", str(generated), str(generated / "loop.yaml")]) == 0
+    out = capsys.readouterr().out.splitlines()
+    assert out[0].split()[0] == "file"
+    files = [line.split()[0] for line in out[1:]]
+    assert files == [str(generated / "hall.yaml"), str(generated / "loop.yaml"), str(generated / "loop.yaml")]
+    assert all("waypoints" in line for line in out[1:])
+
+
+@pytest.mark.parametrize("make,msg", [
+    (lambda d: d / "nope.yaml", "no such file or folder"),
+    (lambda d: d, "no .yaml files in this folder"),
+])
+def test_list_bad_path_one_line_exit_2(tmp_path, make, msg, capsys):
+    assert main(["list", str(make(tmp_path))]) == 2
+    err = capsys.readouterr().err
+    assert err == f"error: {make(tmp_path)}: {msg}\n"
+
+
+def test_show_and_render_a_generated_world(generated, tmp_path):
+    png = tmp_path / "hall.png"
+    assert main(["show", str(generated / "hall.yaml"), "--out", str(png)]) == 0
+    assert png.read_bytes()[:4] == b"\x89PNG"
+    assert main(["render", str(generated / "hall.yaml"), "--out", str(tmp_path)]) == 0
+    assert read_map(tmp_path / "hall_s1_5x4.yaml").equals(rasterize(load_world(generated / "hall.yaml")))
