@@ -9,7 +9,8 @@ A real log may lack odometry, IMU or ground truth (empty arrays).
 meta keys written by the simulator: format_version, world, seed, noise (profile name and
 numbers), lidar ({range_min, range_max, offset: [x, y, yaw] of the lidar in the robot frame,
 scan_time, ...}), robot ({wheel_radius, wheel_separation, ...}), start_pose [x, y, yaw],
-sim_version. Importers of real logs write what they know.
+sim_version, and how the recording went: ending (end | stuck | time limit), route_length,
+route_driven, wall_coverage (sim.record). Importers of real logs write what they know.
 """
 from __future__ import annotations
 
