@@ -118,11 +118,13 @@ def _world(item: Any, where: str, field: str, base: Path) -> str:
 
 
 def _generator_key() -> str:
-    """Digest of the code that decides a generated world's bytes (generator, route planner)."""
+    """Digest of the code that decides a generated world's bytes (generator, layouts, route
+    planner)."""
     import worlds.generate
+    import worlds.layouts
     import worlds.route
     h = hashlib.sha256()
-    for mod in (worlds.generate, worlds.route):
+    for mod in (worlds.generate, worlds.layouts, worlds.route):
         h.update(Path(mod.__file__).read_bytes())
     return h.hexdigest()[:12]
 

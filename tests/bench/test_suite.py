@@ -79,3 +79,16 @@ def test_bench_run_suite_records_draws_and_reports_them(tmp_path, tiny, capsys):
     assert main([*argv[:-4], "--draws", "3", "--out", str(out3), "--no-progress",
                  "--no-figures"]) == 0
     assert len(read_rows(out3)) == 3
+
+
+@pytest.mark.slow
+def test_shipped_general_suite_names_the_study_worlds_loop_and_generated_worlds():
+    import worlds
+    s = load_suite("general")
+    assert s.draws == 3 and len(s.worlds) == 20
+    assert s.worlds[:8] == ("rectangle_s", "rectangle_m", "rectangle_l", "swirl_s", "swirl_m",
+                            "swirl_l", "corridor", "loop")
+    names = [worlds.load_world(w).name for w in s.worlds[8:]]
+    assert names == [f"{k}_s{i}" for k in ("office", "warehouse", "hall", "loop") for i in range(3)]
+    # generated once: a second load reuses the files
+    assert load_suite("general").worlds == s.worlds

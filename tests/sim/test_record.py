@@ -228,3 +228,15 @@ def test_robot_never_passes_through_a_wall(name):
     assert shapely.contains(world.free_space, pts).all()
     assert shapely.distance(world.solid, pts).min() > ROBOT_RADIUS - 0.005
     assert log.meta["ending"] == "end"
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("kind", ["office", "warehouse", "hall", "loop"])
+def test_generated_worlds_record_completely(tmp_path, kind):
+    from worlds import generate_yaml, load_world
+    path = tmp_path / f"{kind}.yaml"
+    path.write_text(generate_yaml(kind, 1))
+    log = record(load_world(str(path)), seed=2, noise="realistic")
+    assert log.meta["ending"] == "end" and recording_problem(log.meta) is None
+    if kind == "loop":                                     # the route closes the loop
+        assert np.hypot(*(log.gt_pose[-1, :2] - log.gt_pose[0, :2])) < 0.1
