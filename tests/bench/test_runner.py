@@ -175,24 +175,11 @@ def test_each_algorithm_is_compiled_once_before_any_task(tiny, tmp_path, monkeyp
     assert sorted(a for k, a in calls if k == "compile") == ["fake_diverge", "fake_map"]
 
 
-STUCK_WORLD = """name: walled
-walls:
-  thickness: 0.1
-  polylines:
-    - [[0, 0], [4, 0], [4, 4], [0, 4], [0, 0]]
-    - [[2, 0], [2, 3.2]]
-robot:
-  start: [1.0, 1.0, 0.0]
-route:
-  - [1.5, 1.0]
-  - [3.0, 1.0]
-"""
+STUCK_WORLD = REPO / "tests" / "data" / "stuck_world.yaml"
 
 
 def test_a_stuck_log_gives_failed_rows_with_the_reason(tmp_path, tiny):
-    world = tmp_path / "walled.yaml"
-    world.write_text(STUCK_WORLD)
-    spec = RunSpec(worlds=(str(world), tiny), algos=("fake_map",), repeats=2)
+    spec = RunSpec(worlds=(str(STUCK_WORLD), tiny), algos=("fake_map",), repeats=2)
     out = run_benchmark(spec, tmp_path / "run", jobs=1, progress=False)
     assert out.complete and (out.ok, out.failed) == (2, 2)
     rows = {(r["world"], r["repeat"]): r for r in read_rows(tmp_path / "run")}

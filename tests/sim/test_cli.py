@@ -1,5 +1,6 @@
 import json
 import zipfile
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -135,18 +136,7 @@ def test_show_without_a_loadable_world(tmp_path):
     assert (tmp_path / "s.png").stat().st_size > 1000
 
 
-WALLED = """name: walled
-walls:
-  thickness: 0.1
-  polylines:
-    - [[0, 0], [4, 0], [4, 4], [0, 4], [0, 0]]
-    - [[2, 0], [2, 3.2]]
-robot:
-  start: [1.0, 1.0, 0.0]
-route:
-  - [1.5, 1.0]
-  - [3.0, 1.0]
-"""
+STUCK_WORLD = Path(__file__).resolve().parents[1] / "data" / "stuck_world.yaml"
 
 
 def _warning_line(capsys):
@@ -156,10 +146,7 @@ def _warning_line(capsys):
 
 
 def test_record_of_a_route_the_robot_cannot_finish_warns_and_exits_3(tmp_path, capsys):
-    # the loader accepts the world (the waypoint is reachable round the wall's end), but
-    # pure pursuit drives straight at the wall and gets stuck
-    world = tmp_path / "walled.yaml"
-    world.write_text(WALLED)
+    world = STUCK_WORLD
     cfg = tmp_path / "rec.yaml"
     cfg.write_text("controller: {stuck_timeout: 4.0}\n")
     out = tmp_path / "log.npz"
