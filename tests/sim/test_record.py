@@ -178,6 +178,19 @@ def test_closed_route_comes_back_to_its_start():
     assert log.meta["wall_coverage"] >= 0.95 and recording_problem(log.meta) is None
 
 
+@pytest.mark.parametrize("route", [
+    [[2.0, 1.0], [3.0, 2.0], [2.0, 1.0], [1.5, 3.0]],           # revisits (2, 1)
+    [[0.4, 1.0], [0.6, 3.0]],                                   # first waypoint behind
+    [[1.0, 3.0], [3.0, 3.0]],                                   # beside, to the left
+    [[1.0, 0.5], [3.0, 0.5]],                                   # beside, to the right
+], ids=["revisit", "behind", "left", "right"])
+def test_any_route_the_loader_accepts_is_driven_to_its_end(route):
+    world = square_room(start=(1.0, 1.0, 0.0), route=route)
+    log = record(world, seed=1, noise="realistic")
+    assert log.meta["ending"] == "end" and log.meta["route_driven"] == 1.0
+    assert np.hypot(*(log.gt_pose[-1, :2] - route[-1])) < 0.1
+
+
 def test_recording_problem_names_the_reason():
     base = {"ending": "end", "route_length": 51.9, "route_driven": 1.0, "wall_coverage": 0.99}
     assert recording_problem(base) is None
