@@ -5,8 +5,8 @@ thickness, obstacles as YAML mappings, start pose, optionally a route); then:
  1. the route is worlds.route.plan_route (office, warehouse, hall), or for a loop the
     ring's centre line with cut corners, ending where it started;
  2. the YAML text is reloaded by worlds.load (start clear of walls, waypoints reachable)
-    and the route must see at least MIN_COVERAGE of the true wall cells at
-    COVERAGE_RANGE m. A draw that fails is replaced by the next one, drawn from
+    and the route must see at least MIN_COVERAGE of the true wall cells within
+    COVERAGE_RANGE m (the output maps take hits from closer than 2 m only). A draw that fails is replaced by the next one, drawn from
     np.random.default_rng((seed, attempt)), up to MAX_DRAWS draws.
 Round pillars are 20-gons, as ray casting (route planning, the coverage check, the
 simulated lidar) costs time in proportion to the segment count. Coordinates are rounded to
@@ -36,8 +36,10 @@ DEFAULT_SIZE = {"office": (10.0, 8.0), "warehouse": (12.0, 9.0), "hall": (9.0, 7
 MIN_SIZE = {"office": (5.0, 4.0), "warehouse": (5.5, 4.5), "hall": (4.0, 3.0), "loop": (4.5, 4.0)}
 
 RESOLUTION = 0.05
-PLAN_RANGE = 3.0        # lidar range (m) the planned route is made for
-COVERAGE_RANGE = 3.5    # range (m) of the coverage check
+# the shared output map (slam.mapper) inserts hits closer than 2 m only, so a route must pass
+# within that of every wall for any algorithm (the oracle too) to map it; 0.2 m to spare
+PLAN_RANGE = 1.8        # range (m) the planned route is made for
+COVERAGE_RANGE = 1.8    # range (m) of the coverage check
 MIN_COVERAGE = 0.97     # margin over the 0.95 the simulator requires of a route
 MAX_DRAWS = 6
 
