@@ -1,7 +1,7 @@
 """Command line: python -m metrics score | trajectory | relations ...
 
-  score      --map MAP.yaml --truth TRUTH.yaml [--align MODE] [--start X,Y,YAW|none]
-             [--tolerance N] [--picture OUT.png] [--title TEXT] [--json]
+  score      --map MAP.yaml --truth WORLD.yaml|TRUTH.yaml [--tau M] [--align MODE]
+             [--start X,Y,YAW|none] [--tolerance N] [--picture OUT.png] [--title TEXT] [--json]
   trajectory --est EST.tum --truth GT.tum|LOG.npz [--segment M] [--json]
   relations  --traj EST.tum --relations FILE [--odom LOG] [--lookup interpolate|exact] [--json]
              (options and output are metrics.relations')
@@ -56,7 +56,11 @@ def build_parser() -> argparse.ArgumentParser:
 
     s = sub.add_parser("score", help="grid portion (precision, sensitivity), ADNN, SSIM of a map")
     s.add_argument("--map", required=True, help="estimated map (ROS map_server YAML + PGM)")
-    s.add_argument("--truth", required=True, help="true map (ROS map_server YAML + PGM)")
+    s.add_argument("--truth", required=True,
+                   help="the world's YAML (surface form and the study's cell rule) or a true map "
+                        "(ROS map_server YAML + PGM: the cell rule only)")
+    s.add_argument("--tau", type=float, default=None, metavar="M",
+                   help="tolerance of the surface form in metres (default 0.02); needs a world")
     s.add_argument("--align", default="auto", choices=MODES,
                    help="alignment mode (default auto: icp from --start, global if --start none)")
     s.add_argument("--start", type=_pose_arg, default=(0.0, 0.0, 0.0), metavar="X,Y,YAW",
@@ -114,19 +118,56 @@ def _print(result: dict, as_json: bool, keys: list[str] | None = None) -> None:
             print(f"{k:24s} {v}")
 
 
+def _truth(path: str):
+    """(true Grid, World or None) of --truth: a world YAML (it has `walls`) or a map pair."""
+    from worlds.yamlio import load_yaml
+
+    try:
+        data = load_yaml(path)
+    except UnicodeDecodeError:
+        raise InputError(f"{path}: not a YAML file (binary; expected the map's or the world's .yaml)") from None
+    except IsADirectoryError:
+        raise InputError(f"{path}: is a directory, expected a map or world .yaml") from None
+    if isinstance(data, dict) and "walls" in data:
+        from worlds.load import load_world
+        from worlds.raster import rasterize
+        world = load_world(path)
+        return rasterize(world), world
+    return _read_map(path), None
+
+
 def _score(args) -> int:
-    from metrics.score import save_overlay_png, score_map
+    from metrics.score import pose_of, save_overlay_png, score_map
+    from metrics.surface import DEFAULT_TAU_M, classify_surface, visible_surfaces
 
     est = _read_map(args.map)
-    truth = _read_map(args.truth)
+    truth, world = _truth(args.truth)
+    if args.tau is not None and world is None:
+        raise InputError(f"--tau: the surface form needs the world's YAML as --truth, "
+                         f"{args.truth} is a raster map")
+    tau = DEFAULT_TAU_M if args.tau is None else args.tau
+    if not (math.isfinite(tau) and 0.0 <= tau <= 1.0):
+        raise InputError(f"--tau: expected metres in [0, 1], got {args.tau}")
     if not est.occupied(args.occupied_thresh).any():
         raise InputError(f"{args.map}: the map has no occupied cell (p >= {args.occupied_thresh}): "
                          "precision and ADNN undefined")
     res = score_map(est, truth, align=args.align, initial=args.start, tolerance=args.tolerance,
                     occupied_thresh=args.occupied_thresh)
+    forms = {"precision": f"cell: the study's exact rule, tolerance {args.tolerance} cells"}
+    surface = None
+    if world is not None:
+        surface = classify_surface(est, visible_surfaces(world), pose_of(res["align"]), tau,
+                                   args.occupied_thresh)
+        res = {**surface.counts, **res}
+        forms["surface_precision"] = f"surface: wall surfaces of {world.name}, tau {tau:g} m"
+    res["forms"] = forms
     if args.picture:
-        save_overlay_png(est, truth, res["align"], args.picture, title=args.title,
-                         tolerance=args.tolerance, occupied_thresh=args.occupied_thresh)
+        if surface is not None:
+            from metrics.plot import save_surface
+            save_surface(surface, args.picture, title=args.title)
+        else:
+            save_overlay_png(est, truth, res["align"], args.picture, title=args.title,
+                             tolerance=args.tolerance, occupied_thresh=args.occupied_thresh)
     _print(res, args.json)
     return 0
 

@@ -11,7 +11,7 @@ import numpy as np
 
 from worlds.grid import FREE_THRESH
 
-__all__ = ["COLOURS", "overlay_rgb", "plot_overlay", "save_overlay"]
+__all__ = ["COLOURS", "overlay_rgb", "plot_overlay", "save_overlay", "plot_surface", "save_surface"]
 
 COLOURS = {"tp": (0.10, 0.70, 0.15), "fp": (0.90, 0.10, 0.10), "fn": (1.00, 0.85, 0.00),
            "free": (0.86, 0.86, 0.86), "unknown": (1.0, 1.0, 1.0)}
@@ -81,3 +81,68 @@ def save_overlay(overlay, path: str | os.PathLike, title: str = "") -> None:
     fig.tight_layout()
     os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
     fig.savefig(path)
+
+
+def plot_surface(ax, surface, title: str = "") -> None:
+    """Draw a SurfaceClassification on `ax` in the world frame: the true surfaces as lines,
+    covered stretches green and missed ones yellow; occupied cells grey (true positive) or
+    red (false positive)."""
+    from matplotlib.collections import LineCollection, PolyCollection
+    from matplotlib.patches import Patch
+
+    from slam.pose import transform_points
+
+    g = surface.grid
+    res = g.resolution
+    for mask, colour in ((surface.tp, "0.55"), (~surface.tp, COLOURS["fp"])):
+        corners = [g.cell_to_world(surface.rows[mask], surface.cols[mask]) + off
+                   for off in ((-res / 2, -res / 2), (res / 2, -res / 2), (res / 2, res / 2),
+                               (-res / 2, res / 2))]
+        quads = np.stack([transform_points(surface.pose, c) for c in corners], axis=1)
+        ax.add_collection(PolyCollection(quads, facecolors=colour, edgecolors="none"))
+    segs = surface.segments
+    ax.add_collection(LineCollection(segs.reshape(-1, 2, 2), colors=[COLOURS["fn"]],
+                                     linewidths=1.6))
+    iv = surface.intervals
+    if len(iv):
+        s = segs[iv[:, 0].astype(int)]
+        a = s[:, :2] + iv[:, 1:2] * (s[:, 2:] - s[:, :2])
+        b = s[:, :2] + iv[:, 2:3] * (s[:, 2:] - s[:, :2])
+        ax.add_collection(LineCollection(np.stack([a, b], axis=1), colors=[COLOURS["tp"]],
+                                         linewidths=1.6))
+    counts = surface.counts
+    missed = counts["surface_length_m"] - counts["surface_covered_m"]
+    covered = counts["surface_covered_m"]
+    handles = [Patch(color=COLOURS["tp"], label=f"surface covered {covered:.2f} m"),
+               Patch(color=COLOURS["fn"], label=f"surface missed {missed:.2f} m"),
+               Patch(color="0.55", label=f"cell touching a surface {counts['surface_tp']}"),
+               Patch(color=COLOURS["fp"], label=f"false cell {counts['surface_fp']}")]
+    ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8,
+              frameon=False)
+    pts = np.vstack([segs[:, :2], segs[:, 2:]])
+    lo, hi = pts.min(axis=0) - 0.3, pts.max(axis=0) + 0.3
+    ax.set_xlim(lo[0], hi[0])
+    ax.set_ylim(lo[1], hi[1])
+    sub = (f"surface form: P {counts['surface_precision']:.3f}  "
+           f"S {counts['surface_sensitivity']:.3f}  F1 {counts['surface_f1']:.3f}  "
+           f"(tau {counts['surface_tau_m']:g} m)")
+    ax.set_title(f"{title}\n{sub}" if title else sub, fontsize=9)
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("y (m)")
+    ax.set_aspect("equal")
+
+
+def save_surface(surface, path: str | os.PathLike, title: str = "") -> None:
+    """Write the surface-form picture (plot_surface) as a PNG."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    segs = surface.segments
+    span = np.ptp(np.vstack([segs[:, :2], segs[:, 2:]]), axis=0) + 0.6
+    height = max(3.0, min(9.0, 5.5 * span[1] / max(span[0], 1e-9) + 1.0))
+    fig = Figure(figsize=(7.5, height), dpi=120)
+    FigureCanvasAgg(fig)
+    plot_surface(fig.add_subplot(1, 1, 1), surface, title)
+    fig.tight_layout()
+    os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
+    fig.savefig(path, bbox_inches="tight")   # the legend sits outside the axes

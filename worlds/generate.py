@@ -6,8 +6,9 @@ thickness, obstacles as YAML mappings, start pose, optionally a route); then:
     ring's centre line with cut corners, ending where it started;
  2. the YAML text is reloaded by worlds.load (start clear of walls, waypoints reachable)
     and the route must see at least MIN_COVERAGE of the true wall cells within
-    COVERAGE_RANGE m (the output maps take hits from closer than 2 m only). A draw that fails is replaced by the next one, drawn from
-    np.random.default_rng((seed, attempt)), up to MAX_DRAWS draws.
+    COVERAGE_RANGE m (the output maps take hits from closer than 2 m only). A draw that
+    fails is replaced by the next one, drawn from np.random.default_rng((seed, attempt)),
+    up to MAX_DRAWS draws.
 Round pillars are 20-gons, as ray casting (route planning, the coverage check, the
 simulated lidar) costs time in proportion to the segment count. Coordinates are rounded to
 mm, not to the 0.05 m grid: most wall faces fall anywhere in a cell, and one outer wall

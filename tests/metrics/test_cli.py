@@ -143,3 +143,41 @@ def test_relations_command_is_wired(capsys, tmp_path):
     assert r["n_used"] == 2 and r["abs_trans_mean"] == pytest.approx(0.0, abs=1e-9)
     one_line_error(*run(capsys, ["relations", "--traj", tmp_path / "none.tum", "--relations",
                                  tmp_path / "rel.txt"]))
+
+
+WORLD = """name: room
+walls:
+  thickness: 0.1
+  polylines:
+    - [[0, 0], [3.013, 0], [3.013, 2.05], [0, 2.05], [0, 0]]
+obstacles:
+  - {box: {center: [2.0, 1.0], size: [0.4, 0.3], yaw: 0.5}}
+robot:
+  start: [0.6, 0.6, 0.0]
+"""
+
+
+def test_score_against_a_world_gives_both_forms(capsys, tmp_path):
+    from worlds.load import load_world
+    from worlds.raster import rasterize
+    (tmp_path / "room.yaml").write_text(WORLD)
+    write_map(rasterize(load_world(str(tmp_path / "room.yaml"))), tmp_path / "est.yaml")
+    pic = tmp_path / "s.png"
+    code, out, err = run(capsys, ["score", "--map", tmp_path / "est.yaml", "--truth",
+                                  tmp_path / "room.yaml", "--json", "--tau", "0.01",
+                                  "--picture", pic])
+    assert code == 0, err
+    r = json.loads(out)
+    assert CONTRACT <= set(r)
+    assert r["surface_precision"] == 1.0 and r["surface_sensitivity"] == pytest.approx(1.0, abs=1e-3)
+    assert r["surface_tau_m"] == 0.01 and r["precision"] == 1.0
+    assert r["forms"]["precision"].startswith("cell: the study's exact rule")
+    assert r["forms"]["surface_precision"] == "surface: wall surfaces of room, tau 0.01 m"
+    assert pic.read_bytes()[:4] == b"\x89PNG"
+
+
+def test_tau_needs_a_world(maps, capsys):
+    code, out, err = run(capsys, ["score", "--map", maps / "est.yaml", "--truth", maps / "truth.yaml",
+                                  "--tau", "0.01"])
+    one_line_error(code, out, err)
+    assert "needs the world's YAML" in err
