@@ -61,6 +61,11 @@ def plot_overlay(ax, overlay, title: str = "") -> None:
             va="bottom", fontsize=8, bbox={"facecolor": "white", "edgecolor": "none", "pad": 1})
     sub = (f"P {counts['precision']:.3f}  S {counts['sensitivity']:.3f}  F1 {counts['f1']:.3f}"
            + (f"  (tolerance {counts['tolerance']})" if counts["tolerance"] else ""))
+    _titles(ax, title, sub)
+
+
+def _titles(ax, title: str, sub: str) -> None:
+    """Title (and the scores under it), axis labels in metres, equal aspect."""
     ax.set_title(f"{title}\n{sub}" if title else sub, fontsize=9)
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m)")
@@ -126,10 +131,7 @@ def plot_surface(ax, surface, title: str = "") -> None:
     sub = (f"surface form: P {counts['surface_precision']:.3f}  "
            f"S {counts['surface_sensitivity']:.3f}  F1 {counts['surface_f1']:.3f}  "
            f"(tau {counts['surface_tau_m']:g} m)")
-    ax.set_title(f"{title}\n{sub}" if title else sub, fontsize=9)
-    ax.set_xlabel("x (m)")
-    ax.set_ylabel("y (m)")
-    ax.set_aspect("equal")
+    _titles(ax, title, sub)
 
 
 def save_surface(surface, path: str | os.PathLike, title: str = "") -> None:
