@@ -107,16 +107,13 @@ def _gap(ceiling: dict[int, float] | None, mine: dict[int, float] | None) -> flo
     return float(np.mean([ceiling[d] - mine[d] for d in common])) if common else None
 
 
-def _draw_sections(worlds, algos, rows: list[dict]) -> list[str]:
-    """Per-world mean ± std over draws, the gap to the oracle, and the mean over worlds."""
-    stats = {m: over_draws(rows, m) for m in ("precision", "sensitivity", "adnn_cells", "ate_m")}
-    per_draw = {m: draw_means(rows, m) for m in ("precision", "sensitivity")}
-    failed: dict[tuple[str, str], int] = {}
-    total: dict[tuple[str, str], int] = {}
-    for r in rows:
-        k = (r["world"], r["algo"])
-        total[k] = total.get(k, 0) + 1
-        failed[k] = failed.get(k, 0) + (r.get("status") != "ok")
+def _draw_sections(worlds, algos, rows: list[dict], agg: dict) -> list[str]:
+    """Per-world mean ± std over draws, the gap to the oracle, and the mean over worlds;
+    agg: aggregate(rows), for the row and failure counts."""
+    per_draw = {m: draw_means(rows, m) for m in ("precision", "sensitivity", "adnn_cells", "ate_m")}
+    stats = {m: {k: mean_std(v.values()) for k, v in d.items()} for m, d in per_draw.items()}
+    failed = {k: g["failed"] for k, g in agg.items()}
+    total = {k: g["n"] for k, g in agg.items()}
     ps = [("precision", "P"), ("sensitivity", "S")]
     head = [f"{_head(a)} {lab}" for a in algos for _, lab in ps]
     out = ["## Across noise draws: precision (P) and sensitivity (S), mean ± std over draws", "",
@@ -269,7 +266,7 @@ def summary_markdown(rows: list[dict], run: dict | None = None,
          [("realtime_factor", "")], 1),
     ]
     if draws > 1 or any(int(r.get("draw", 0)) > 0 for r in rows):
-        out += _draw_sections(worlds, algos, rows)
+        out += _draw_sections(worlds, algos, rows, agg)
     out += _study_sections(worlds, algos, agg)
     for title, metrics, dec in sections:
         out += [f"## {title}", "", _table(worlds, algos, agg, metrics, dec), ""]

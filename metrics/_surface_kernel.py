@@ -86,16 +86,13 @@ def _near_interval(x0, y0, dx, dy, c, r, d):
 
 
 @njit(cache=True)
-def _push(out, n, s, lo, hi):
-    """Append (s, lo, hi) to out[:n], growing it when full; returns (out, n + 1)."""
-    if n == out.shape[0]:
-        bigger = np.empty((2 * n, 3))
-        bigger[:n] = out
-        out = bigger
-    out[n, 0] = s
-    out[n, 1] = lo
-    out[n, 2] = hi
-    return out, n + 1
+def _room_for(buf, n):
+    """buf, or a copy twice its length when its n rows are all used."""
+    if n < buf.shape[0]:
+        return buf
+    bigger = np.empty((2 * n, buf.shape[1]))
+    bigger[:n] = buf
+    return bigger
 
 
 @njit(cache=True)
@@ -130,10 +127,7 @@ def surface_match(segments, occupied, d):
                 if lo > hi:
                     continue
                 tp[r, c] = True
-                if m == buf.shape[0]:
-                    bigger = np.empty((2 * m, 2))
-                    bigger[:m] = buf
-                    buf = bigger
+                buf = _room_for(buf, m)
                 buf[m, 0] = lo
                 buf[m, 1] = hi
                 m += 1
@@ -142,15 +136,18 @@ def surface_match(segments, occupied, d):
         order = np.argsort(buf[:m, 0])
         cur_lo = buf[order[0], 0]
         cur_hi = buf[order[0], 1]
-        for k in range(1, m):
-            lo = buf[order[k], 0]
-            hi = buf[order[k], 1]
-            if lo <= cur_hi:
-                cur_hi = max(cur_hi, hi)
-            else:
-                out, n = _push(out, n, s, cur_lo, cur_hi)
-                cur_lo, cur_hi = lo, hi
-        out, n = _push(out, n, s, cur_lo, cur_hi)
+        for k in range(1, m + 1):
+            if k < m and buf[order[k], 0] <= cur_hi:
+                cur_hi = max(cur_hi, buf[order[k], 1])
+                continue
+            out = _room_for(out, n)       # close the merged interval [cur_lo, cur_hi]
+            out[n, 0] = s
+            out[n, 1] = cur_lo
+            out[n, 2] = cur_hi
+            n += 1
+            if k < m:
+                cur_lo = buf[order[k], 0]
+                cur_hi = buf[order[k], 1]
     return tp, out[:n].copy()
 
 

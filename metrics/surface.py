@@ -37,16 +37,8 @@ _EDGE_EPS_CELLS = 1e-6
 
 def visible_surfaces(world) -> np.ndarray:
     """(S, 4) x0, y0, x1, y1 (m): the boundary of the free space around the start, i.e. every
-    wall and obstacle surface a lidar on the robot can see, as segments."""
-    region = world.free_space
-    segs = []
-    for poly in getattr(region, "geoms", [region]):
-        if poly.is_empty:
-            continue
-        for ring in [poly.exterior, *poly.interiors]:
-            xy = np.asarray(ring.coords, dtype=np.float64)
-            segs.append(np.hstack([xy[:-1], xy[1:]]))
-    return np.vstack(segs) if segs else np.zeros((0, 4))
+    wall and obstacle surface a lidar on the robot can see (World.visible_segments)."""
+    return world.visible_segments
 
 
 @dataclass(frozen=True)

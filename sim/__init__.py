@@ -9,5 +9,6 @@ from sim.noise import NoiseProfile, load_profile, profile_names
 from sim.record import (MIN_COVERAGE, SIM_VERSION, RecordConfig, load_record_config, record,
                         recording_problem)
 
-__all__ = ["record", "recording_problem", "MIN_COVERAGE", "RecordConfig", "load_record_config", "SIM_VERSION", "NoiseProfile",
-           "load_profile", "profile_names", "SensorLog", "read_log", "write_log", "FORMAT_VERSION"]
+__all__ = ["record", "recording_problem", "MIN_COVERAGE", "RecordConfig", "load_record_config",
+           "SIM_VERSION", "NoiseProfile", "load_profile", "profile_names", "SensorLog", "read_log",
+           "write_log", "FORMAT_VERSION"]

@@ -5,9 +5,9 @@ robot aims at the point `lookahead` metres of arc length ahead of its progress a
 the path, with curvature 2 sin(alpha) / L. The forward speed ramps up at `accel`, is
 lowered so the turn rate stays <= max_turn_rate (0.7 rad/s in the reference study) and
 to brake within the distance left along the route, and drops to zero for a turn in place
-when the heading error exceeds `turn_in_place`. Progress only moves forward (within a window), so a path that
-passes near itself (a spiral), revisits a waypoint or ends where it starts (a closed
-route) is followed in order.
+when the heading error exceeds `turn_in_place`. Progress only moves forward (within a
+window), so a path that passes near itself (a spiral), revisits a waypoint or ends where
+it starts (a closed route) is followed in order.
 """
 from __future__ import annotations
 

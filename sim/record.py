@@ -36,13 +36,12 @@ from worlds.model import World
 from worlds.yamlio import InputError, from_dict, load_yaml, to_dict
 
 __all__ = ["RecordConfig", "load_record_config", "record", "recording_problem", "SIM_VERSION",
-           "MIN_COVERAGE", "ENDINGS"]
+           "MIN_COVERAGE"]
 
 # bump when the recorded data for the same world, seed and profile changes
 SIM_VERSION = "3"
 # below this share of the true wall cells seen, a log cannot give a complete map
 MIN_COVERAGE = 0.95
-ENDINGS = ("end", "stuck", "time limit")
 
 
 @dataclass(frozen=True)
@@ -104,7 +103,7 @@ def _drive(world: World, route: np.ndarray, cfg: RecordConfig, noise: NoiseProfi
            rng: np.random.Generator):
     """Run the physics. Returns gt (L, 3) (yaw unwrapped, row i at i * physics_dt),
     step_t (C + 1,) control-step boundaries, wheel (C, 2) commanded wheel speeds rad/s,
-    how the run ended (one of ENDINGS) and the controller (its progress and path length)."""
+    how the run ended ("end", "stuck" or "time limit") and the controller (its progress and path length)."""
     rc = cfg.robot
     start = np.asarray(world.start, dtype=np.float64)
     path = np.vstack([start[:2], route])

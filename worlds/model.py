@@ -72,6 +72,19 @@ def make_obstacle(kind: str, params: dict) -> Obstacle:
     return Obstacle(kind, dict(params), poly)
 
 
+def ring_segments(geometry: BaseGeometry) -> np.ndarray:
+    """(S, 4) float64 x0, y0, x1, y1 of every edge of the rings of a (multi)polygon."""
+    polys = geometry.geoms if isinstance(geometry, MultiPolygon) else [geometry]
+    segs = []
+    for poly in polys:
+        if poly.is_empty:
+            continue
+        for ring in [poly.exterior, *poly.interiors]:
+            xy = np.asarray(ring.coords, dtype=np.float64)
+            segs.append(np.hstack([xy[:-1], xy[1:]]))
+    return np.vstack(segs) if segs else np.zeros((0, 4))
+
+
 @dataclass(frozen=True, eq=False)
 class World:
     """A world: walls, obstacles, start pose (x, y, yaw) and an optional route ((K, 2) m)."""
@@ -104,15 +117,13 @@ class World:
     @cached_property
     def segments(self) -> np.ndarray:
         """(S, 4) float64 x0, y0, x1, y1 of every edge of the solid's boundary (for ray casting)."""
-        polys = self.solid.geoms if isinstance(self.solid, MultiPolygon) else [self.solid]
-        segs = []
-        for poly in polys:
-            if poly.is_empty:
-                continue
-            for ring in [poly.exterior, *poly.interiors]:
-                xy = np.asarray(ring.coords)
-                segs.append(np.hstack([xy[:-1], xy[1:]]))
-        return np.vstack(segs) if segs else np.zeros((0, 4))
+        return ring_segments(self.solid)
+
+    @cached_property
+    def visible_segments(self) -> np.ndarray:
+        """(S, 4) float64 x0, y0, x1, y1 of the boundary of free_space: every wall and obstacle
+        surface a lidar on the robot can see (the surfaces worlds.raster marks)."""
+        return ring_segments(self.free_space)
 
     @cached_property
     def free_space(self) -> BaseGeometry:
