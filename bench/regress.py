@@ -3,9 +3,11 @@
 The baseline (bench/baseline.json) stores the matrix it was made with (worlds, algorithms,
 repeats, seed, noise) and, per world/algorithm, the mean of each checked metric and the
 number of failed repeats. `regress()` reruns that matrix and reports every mean that got
-worse by more than its tolerance (`TOLERANCES`: precision/sensitivity may drop by 0.03,
-ADNN rise by 0.3 cells, ATE by 0.02 m, no new failures). Getting better never fails;
-refresh the baseline with update=True (`--update`) when a change is meant.
+worse by more than its tolerance (`default_tolerances()`: the tolerances of the columns of
+metrics.registry, e.g. precision/sensitivity may drop by 0.03, ADNN rise by 0.3 cells, ATE
+by 0.02 m; and no new failures). A baseline keeps the tolerances it was written with.
+Getting better never fails; refresh the baseline with update=True (`--update`) when a
+change is meant.
 """
 from __future__ import annotations
 
@@ -15,28 +17,30 @@ import sys
 import tempfile
 from pathlib import Path
 
+from metrics import registry
 from worlds.yamlio import InputError, atomic_write_text
 from bench.plan import RunSpec, resolve_algos
 from bench.results import jsonable, read_rows
 from bench.tables import mean_std
 
-__all__ = ["BASELINE_PATH", "DEFAULT_WORLDS", "DEFAULT_REPEATS", "TOLERANCES", "summarize",
-           "compare", "regress"]
+__all__ = ["BASELINE_PATH", "DEFAULT_WORLDS", "DEFAULT_REPEATS", "default_tolerances",
+           "summarize", "compare", "regress"]
 
 BASELINE_PATH = Path(__file__).with_name("baseline.json")
 DEFAULT_WORLDS = ("rectangle_s", "swirl_s")
 DEFAULT_REPEATS = 2
-# metric -> (direction that is worse, allowed change of the mean)
-TOLERANCES: dict[str, tuple[str, float]] = {
-    "precision": ("drop", 0.03), "sensitivity": ("drop", 0.03),
-    "precision_t1": ("drop", 0.03), "sensitivity_t1": ("drop", 0.03),
-    "adnn_cells": ("rise", 0.3), "ate_m": ("rise", 0.02),
-    "failed": ("rise", 0.0),
-}
 
 
-def summarize(rows: list[dict], metrics=TOLERANCES) -> dict[str, dict]:
-    """'world/algo' -> {metric: mean over ok rows (None if none), 'failed': count, 'n': count}."""
+def default_tolerances() -> dict[str, tuple[str, float]]:
+    """metric -> (direction that is worse, allowed change of the mean): every checked column
+    of metrics.registry, and `failed` (no new failures)."""
+    return {**registry.tolerances(), "failed": ("rise", 0.0)}
+
+
+def summarize(rows: list[dict], metrics=None) -> dict[str, dict]:
+    """'world/algo' -> {metric: mean over ok rows (None if none), 'failed': count, 'n': count};
+    metrics: the keys to average (default: those of default_tolerances())."""
+    metrics = default_tolerances() if metrics is None else metrics
     groups: dict[str, list[dict]] = {}
     for r in rows:
         groups.setdefault(f"{r['world']}/{r['algo']}", []).append(r)
@@ -54,8 +58,10 @@ def summarize(rows: list[dict], metrics=TOLERANCES) -> dict[str, dict]:
 
 
 def compare(baseline: dict[str, dict], current: dict[str, dict],
-            tolerances=TOLERANCES) -> list[str]:
-    """Lines describing every metric of `current` worse than `baseline` beyond its tolerance."""
+            tolerances=None) -> list[str]:
+    """Lines describing every metric of `current` worse than `baseline` beyond its tolerance
+    (default: default_tolerances())."""
+    tolerances = default_tolerances() if tolerances is None else tolerances
     worse = []
     for key, base in sorted(baseline.items()):
         cur = current.get(key)
@@ -127,12 +133,14 @@ def regress(baseline: str | Path | None = None, update: bool = False, worlds=Non
             return 130 if outcome.interrupted else 1
         current = summarize(read_rows(out_dir))
     if update:
-        data = {"matrix": matrix, "tolerances": {k: list(v) for k, v in TOLERANCES.items()},
+        data = {"matrix": matrix,
+                "tolerances": {k: list(v) for k, v in default_tolerances().items()},
                 "means": current}
         atomic_write_text(path, json.dumps(jsonable(data), indent=1, sort_keys=True) + "\n")
         print(f"baseline written: {path} ({len(current)} world/algorithm pairs)", file=stream)
         return 0
-    tolerances = {k: (v[0], float(v[1])) for k, v in base.get("tolerances", {}).items()} or TOLERANCES
+    tolerances = ({k: (v[0], float(v[1])) for k, v in base.get("tolerances", {}).items()}
+                  or default_tolerances())
     worse = compare(base["means"], current, tolerances)
     new = sorted(set(current) - set(base["means"]))
     if new:

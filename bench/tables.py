@@ -4,6 +4,8 @@ Table 1 of the study: rows = worlds, columns = algorithms, cells "mean ± std" o
 cells. Table 2: per world and algorithm, precision and sensitivity "mean ± std". We add the
 same at a tolerance of 1 cell, ATE, RPE and the real-time factor; the oracle (maps with the
 true poses) is the last column: the ceiling a SLAM could reach with perfect poses.
+The tables and the CSV columns are the columns of metrics.registry: a column with a section
+joins that table, every other one with a value gets a table under "More metrics".
 Statistics use the rows with status "ok"; std is the sample standard deviation (ddof=1,
 0 for a single repeat); failures are counted in their own table.
 A run with several noise draws per world (a suite) also gets, per world, the mean and std
@@ -21,22 +23,12 @@ from pathlib import Path
 
 import numpy as np
 
+from metrics import registry
+from metrics.registry import Column
 from worlds.yamlio import atomic_write_text
 
 __all__ = ["aggregate", "summary_markdown", "summary_csv", "write_tables", "mean_std",
-           "algo_order", "world_order", "CSV_METRICS", "over_draws", "draw_means"]
-
-# metric -> (label, decimals) of every metric in summary.csv
-CSV_METRICS = {
-    "adnn_cells": ("ADNN (cells)", 2), "adnn_m": ("ADNN (m)", 4),
-    "adnn_reverse_cells": ("reverse ADNN (cells)", 2), "chamfer_cells": ("chamfer (cells)", 2),
-    "precision": ("precision", 3), "sensitivity": ("sensitivity", 3), "f1": ("F1", 3),
-    "precision_t1": ("precision, 1 cell", 3), "sensitivity_t1": ("sensitivity, 1 cell", 3),
-    "precision_t2": ("precision, 2 cells", 3), "sensitivity_t2": ("sensitivity, 2 cells", 3),
-    "ate_m": ("ATE (m)", 3), "ate_start_m": ("ATE from start (m)", 3),
-    "rpe_trans_m": ("RPE (m)", 4), "rpe_rot_rad": ("RPE (rad)", 4),
-    "realtime_factor": ("real-time factor", 1), "wall_time_s": ("wall time (s)", 1),
-}
+           "algo_order", "world_order", "over_draws", "draw_means"]
 
 
 def mean_std(values) -> tuple[float, float, int]:
@@ -65,7 +57,8 @@ def world_order(rows: list[dict], run: dict | None = None) -> list[str]:
 
 
 def aggregate(rows: list[dict]) -> dict[tuple[str, str], dict]:
-    """(world, algo) -> {"n", "failed", "errors", metric: (mean, std, n) for CSV_METRICS}."""
+    """(world, algo) -> {"n", "failed", "errors", key: (mean, std, n) of every registry
+    column}."""
     groups: dict[tuple[str, str], list[dict]] = {}
     for r in rows:
         groups.setdefault((r["world"], r["algo"]), []).append(r)
@@ -74,8 +67,8 @@ def aggregate(rows: list[dict]) -> dict[tuple[str, str], dict]:
         ok = [r for r in rs if r.get("status") == "ok"]
         agg = {"n": len(rs), "failed": len(rs) - len(ok),
                "errors": sorted({str(r.get("error")) for r in rs if r.get("status") != "ok"})}
-        for m in CSV_METRICS:
-            agg[m] = mean_std(r.get(m) for r in ok)
+        for c in registry.columns():
+            agg[c.key] = mean_std(r.get(c.key) for r in ok)
         out[key] = agg
     return out
 
@@ -213,22 +206,40 @@ def _head(algo: str) -> str:
     return "oracle (ceiling)" if algo == "oracle" else algo
 
 
-def _table(worlds, algos, agg, metrics: list[tuple[str, str]], decimals: int) -> str:
-    """Markdown table: one row per world, one column per algorithm x metric."""
-    multi = len(metrics) > 1
-    cols = [f"{_head(a)} {lab}" if multi else _head(a) for a in algos for _, lab in metrics]
-    lines = ["| world | " + " | ".join(cols) + " |", "|---" * (len(cols) + 1) + "|"]
+def _table(worlds, algos, agg, cols: list[Column]) -> str:
+    """Markdown table: one row per world, one column per algorithm x registry column."""
+    multi = len(cols) > 1
+    heads = [f"{_head(a)} {c.short}" if multi else _head(a) for a in algos for c in cols]
+    lines = ["| world | " + " | ".join(heads) + " |", "|---" * (len(heads) + 1) + "|"]
     for w in worlds:
         cells = []
         for a in algos:
             g = agg.get((w, a))
-            for m, _ in metrics:
-                c = _cell(g[m], decimals) if g else "–"
-                if g and g["failed"] and m == metrics[0][0]:
-                    c += f" ({g['failed']}/{g['n']} failed)"
-                cells.append(c)
+            for c in cols:
+                cell = _cell(g[c.key], c.decimals) if g else "–"
+                if g and g["failed"] and c is cols[0]:
+                    cell += f" ({g['failed']}/{g['n']} failed)"
+                cells.append(cell)
         lines.append(f"| {w} | " + " | ".join(cells) + " |")
     return "\n".join(lines)
+
+
+def _metric_sections(worlds, algos, agg) -> list[str]:
+    """One table per registered section, then one per other column that has a value."""
+    cols = registry.columns()
+    out = []
+    for sec in registry.sections():
+        mine = [c for c in cols if c.section == sec.name]
+        if mine:
+            out += [f"## {sec.title}", "", _table(worlds, algos, agg, mine), ""]
+    rest = [c for c in cols if not c.section and any(g[c.key][2] for g in agg.values())]
+    if rest:
+        out += ["## More metrics, mean ± std", ""]
+        for c in rest:
+            better = {True: " (higher is better)", False: " (lower is better)"}.get(
+                c.higher_is_better, "")
+            out += [f"### {c.label}{better}", "", _table(worlds, algos, agg, [c]), ""]
+    return out
 
 
 def summary_markdown(rows: list[dict], run: dict | None = None,
@@ -254,22 +265,10 @@ def summary_markdown(rows: list[dict], run: dict | None = None,
     ceiling = " The oracle maps with the true poses: the ceiling." if "oracle" in algos else ""
     out += [f"Rows: {len(rows)} ({len(rows) - n_ok} failed). Cells: mean ± std over the repeats "
             f"that succeeded (sample std).{ceiling}", ""]
-    sections = [
-        ("Table 1: ADNN (cells), mean ± std", [("adnn_cells", "")], 2),
-        ("Table 2: precision (P) and sensitivity (S) of occupied cells, mean ± std",
-         [("precision", "P"), ("sensitivity", "S")], 3),
-        ("Table 2b: precision and sensitivity at a tolerance of 1 cell",
-         [("precision_t1", "P"), ("sensitivity_t1", "S")], 3),
-        ("Absolute trajectory error (m, after SE(2) alignment)", [("ate_m", "")], 3),
-        ("Relative pose error (m per 1 m segment)", [("rpe_trans_m", "")], 4),
-        ("Real-time factor (log duration / wall time; > 1 is faster than real time)",
-         [("realtime_factor", "")], 1),
-    ]
     if draws > 1 or any(int(r.get("draw", 0)) > 0 for r in rows):
         out += _draw_sections(worlds, algos, rows, agg)
     out += _study_sections(worlds, algos, agg)
-    for title, metrics, dec in sections:
-        out += [f"## {title}", "", _table(worlds, algos, agg, metrics, dec), ""]
+    out += _metric_sections(worlds, algos, agg)
     failed = [(k, g) for k, g in agg.items() if g["failed"]]
     if failed:
         out += ["## Failures", "", "| world | algorithm | failed | errors |", "|---|---|---|---|"]
@@ -292,15 +291,16 @@ def summary_csv(rows: list[dict], run: dict | None = None) -> str:
     algos = algo_order(r["algo"] for r in rows)
     buf = io.StringIO()
     w = csv.writer(buf, lineterminator="\n")
+    keys = [c.key for c in registry.columns()]
     w.writerow(["world", "algo", "n", "failed"] +
-               [f"{m}_{s}" for m in CSV_METRICS for s in ("mean", "std")])
+               [f"{m}_{s}" for m in keys for s in ("mean", "std")])
     for world in worlds:
         for algo in algos:
             g = agg.get((world, algo))
             if not g:
                 continue
             vals = []
-            for m in CSV_METRICS:
+            for m in keys:
                 mean, std, n = g[m]
                 vals += ["" if n == 0 else f"{mean:.6g}", "" if n == 0 else f"{std:.6g}"]
             w.writerow([world, algo, g["n"], g["failed"]] + vals)

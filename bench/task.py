@@ -26,10 +26,9 @@ __all__ = ["WorldInfo", "execute", "record_log", "versions", "DIVERGE_MARGIN_M",
 
 # a pose this far outside the world's solid geometry cannot be a working SLAM
 DIVERGE_MARGIN_M = 2.0
-# grid-portion tolerances (cells) scored for every map: the study's 0, and 1 and 2 cells
+# grid-portion tolerances (cells) scored for every map: the study's 0, and 1 and 2 cells;
+# above 0 the metrics' per-tolerance keys are reported again as KEY_t1, KEY_t2
 TOLERANCES = (0, 1, 2)
-# score_map keys copied per tolerance (suffix _t1, _t2); tolerance 0 copies every scalar key
-_PER_TOL_KEYS = ("precision", "sensitivity", "f1", "tp", "fp", "fn")
 
 
 @dataclass(frozen=True, eq=False)
@@ -150,19 +149,33 @@ def _scalars(d: dict) -> dict:
 
 
 def _score(grid: Grid, truth: Grid) -> dict:
-    """Every map metric at tolerance 0; P/S/F1/TP/FP/FN again at 1 and 2 cells, under the
-    same alignment (the SLAM starts at the true pose: ICP refines from identity)."""
-    import metrics
-    from metrics.score import classify
-    s = metrics.score_map(grid, truth, align="auto", initial=(0.0, 0.0, 0.0), tolerance=0)
+    """Every registered map metric at tolerance 0; the per-tolerance keys again at 1 and 2
+    cells, under the same alignment (the SLAM starts at the true pose: ICP refines from
+    identity)."""
+    from metrics import registry
+    from metrics.score import map_context, score_context
+    ctx = map_context(grid, truth, align="auto", initial=(0.0, 0.0, 0.0), tolerance=0)
+    s = score_context(ctx)
     out = _scalars(s)
     al = s["align"]
     out.update({f"align_{k}": float(al[k]) for k in ("x", "y", "yaw")})
     for tol in TOLERANCES:
         if tol:
-            counts = classify(grid, truth, al, tolerance=tol).classes.counts
-            out.update({f"{k}_t{tol}": counts[k] for k in _PER_TOL_KEYS if k in counts})
+            out.update(registry.compute_at_tolerance(ctx.at_tolerance(tol), tol))
     return out
+
+
+def _trajectory_scores(result, log) -> dict:
+    """Every registered trajectory metric of `result` against the log's true path."""
+    from metrics import registry
+    from metrics.trajectory import TrajectoryContext
+    ctx = TrajectoryContext(result.times, result.poses, log.gt_t, log.gt_pose)
+    return _scalars(registry.compute("trajectory", ctx))
+
+
+def _run_keys() -> list[str]:
+    from metrics import registry
+    return [k for m in registry.metrics("run") for k in m.keys]
 
 
 def new_row(task, noise: str = "", vary: str = "slam") -> dict:
@@ -194,7 +207,7 @@ def execute(task, world: WorldInfo, log_source, config=None, noise: str = "", va
         warm_up(task.algo, log, config)
         result = run_algorithm(task.algo, log, config=config, seed=int(task.slam_seed))
         stats = dict(result.stats)
-        for k in ("wall_time_s", "realtime_factor", "log_duration_s", "scans_processed"):
+        for k in _run_keys():
             if k in stats:
                 row[k] = stats.pop(k)
         stats.pop("algo", None)
@@ -209,9 +222,7 @@ def execute(task, world: WorldInfo, log_source, config=None, noise: str = "", va
             s0 = time.perf_counter()
             row.update(_score(result.grid, world.truth))
             if log.has_ground_truth:
-                import metrics
-                row.update(_scalars(metrics.trajectory_error(result.times, result.poses,
-                                                             log.gt_t, log.gt_pose)))
+                row.update(_trajectory_scores(result, log))
             row["score_time_s"] = time.perf_counter() - s0
     except Exception as err:  # a failing SLAM (or scorer) is a result, not a crash
         msg = str(err).strip().splitlines()[0] if str(err).strip() else ""

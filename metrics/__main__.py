@@ -173,7 +173,8 @@ def _score(args) -> int:
 
 
 def _trajectory(args) -> int:
-    from metrics.trajectory import trajectory_error
+    from metrics import registry
+    from metrics.trajectory import TrajectoryContext
     from metrics.tum import read_tum
 
     et, ep = read_tum(args.est)
@@ -186,7 +187,8 @@ def _trajectory(args) -> int:
         gt, gp = log.gt_t, log.gt_pose
     else:
         gt, gp = read_tum(args.truth)
-    _print(trajectory_error(et, ep, gt, gp, segment_m=args.segment), args.json)
+    _print(registry.compute("trajectory", TrajectoryContext(et, ep, gt, gp, args.segment)),
+           args.json)
     return 0
 
 

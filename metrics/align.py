@@ -24,12 +24,14 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.fft as sfft
 
+from metrics.result import Result
 from metrics.trajectory import rigid_fit_2d
 from metrics.truth import PreparedTruth
 from slam.pose import compose, transform_points, wrap_angle
 from worlds.yamlio import InputError
 
-__all__ = ["AlignConfig", "Alignment", "MODES", "align_points", "icp", "global_candidates"]
+__all__ = ["AlignConfig", "Alignment", "MapAlignment", "MODES", "align_points", "icp",
+           "global_candidates"]
 
 MODES = ("auto", "none", "start", "icp", "global")
 
@@ -67,6 +69,20 @@ class Alignment:
 
     def as_dict(self) -> dict:
         return {"x": float(self.pose[0]), "y": float(self.pose[1]), "yaw": float(self.pose[2])}
+
+
+@dataclass(frozen=True)
+class MapAlignment(Result):
+    """The alignment a map score used ({"x", "y", "yaw"}, mode, inlier fraction, RMS of the
+    inliers in m) and the occupied cells and resolution (m) it worked on."""
+
+    align: dict
+    align_mode: str
+    align_inlier_fraction: float
+    align_rms_m: float
+    est_occupied: int
+    true_occupied: int
+    resolution: float
 
 
 def _fitness(pts: np.ndarray, truth: PreparedTruth, pose: np.ndarray, cut: float) -> tuple[float, float]:

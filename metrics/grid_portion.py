@@ -22,7 +22,26 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import ndimage
 
-__all__ = ["Classification", "classify_masks"]
+from metrics.result import Result
+
+__all__ = ["GridPortion", "Classification", "classify_masks"]
+
+_EMPTY_NOTE = "estimate has no occupied cell: precision, sensitivity and f1 set to 0"
+
+
+@dataclass(frozen=True)
+class GridPortion(Result):
+    """Precision, sensitivity and F1 of occupied cells at `tolerance` cells, with their counts."""
+
+    precision: float
+    sensitivity: float
+    f1: float
+    tp: int
+    fp: int
+    fn: int
+    tp_truth: int
+    tolerance: int
+    note: str | None = None
 
 
 @dataclass(frozen=True)
@@ -36,18 +55,21 @@ class Classification:
     tolerance: int
 
     @property
-    def counts(self) -> dict:
+    def portion(self) -> GridPortion:
+        """The counts and ratios of these masks (see the module docstring)."""
         tp, fp, fn = int(self.tp.sum()), int(self.fp.sum()), int(self.fn.sum())
         precision = tp / (tp + fp) if tp + fp else 0.0
         sensitivity = self.tp_truth / (self.tp_truth + fn) if self.tp_truth + fn else 0.0
         f1 = (2 * precision * sensitivity / (precision + sensitivity)
               if precision + sensitivity > 0 else 0.0)
-        out = {"precision": float(precision), "sensitivity": float(sensitivity), "f1": float(f1),
-               "tp": tp, "fp": fp, "fn": fn, "tp_truth": int(self.tp_truth),
-               "tolerance": int(self.tolerance)}
-        if tp + fp == 0:
-            out["note"] = "estimate has no occupied cell: precision, sensitivity and f1 set to 0"
-        return out
+        return GridPortion(float(precision), float(sensitivity), float(f1), tp, fp, fn,
+                           int(self.tp_truth), int(self.tolerance),
+                           None if tp + fp else _EMPTY_NOTE)
+
+    @property
+    def counts(self) -> dict:
+        """portion.as_dict(): precision, sensitivity, f1, tp, fp, fn, tp_truth, tolerance."""
+        return self.portion.as_dict()
 
 
 def _grow(mask: np.ndarray, k: int) -> np.ndarray:

@@ -14,13 +14,16 @@ areas than a clean one of the same place.
 from __future__ import annotations
 
 import functools
+from dataclasses import dataclass
 
 import numpy as np
 from scipy import ndimage
 
+from metrics.result import Result
 from worlds.grid import FREE_THRESH, OCCUPIED_THRESH, Grid
 
-__all__ = ["gtfree_metrics", "corner_response", "count_corners", "count_enclosed_areas"]
+__all__ = ["MapQuality", "map_quality", "gtfree_metrics", "corner_response", "count_corners",
+           "count_enclosed_areas"]
 
 _SIGMA = 1.0
 _QUALITY = 0.1
@@ -71,13 +74,28 @@ def count_enclosed_areas(occupied: np.ndarray, min_cells: int = 1) -> int:
     return int(keep.sum())
 
 
-def gtfree_metrics(grid: Grid, occupied_thresh: float = OCCUPIED_THRESH,
-                   free_thresh: float = FREE_THRESH) -> dict:
+@dataclass(frozen=True)
+class MapQuality(Result):
+    """The ground-truth-free metrics of one map (see the module docstring)."""
+
+    occupied_fraction: float
+    free_fraction: float
+    corners: int
+    enclosed_areas: int
+
+
+def map_quality(grid: Grid, occupied_thresh: float = OCCUPIED_THRESH,
+                free_thresh: float = FREE_THRESH) -> MapQuality:
     """occupied_fraction, free_fraction (of known cells; 0 when nothing is known), corners and
     enclosed_areas of one map."""
     occ = grid.occupied(occupied_thresh)
     known = int(grid.known().sum())
-    return {"occupied_fraction": float(occ.sum() / known) if known else 0.0,
-            "free_fraction": float(grid.free(free_thresh).sum() / known) if known else 0.0,
-            "corners": count_corners(occ),
-            "enclosed_areas": count_enclosed_areas(occ)}
+    return MapQuality(float(occ.sum() / known) if known else 0.0,
+                      float(grid.free(free_thresh).sum() / known) if known else 0.0,
+                      count_corners(occ), count_enclosed_areas(occ))
+
+
+def gtfree_metrics(grid: Grid, occupied_thresh: float = OCCUPIED_THRESH,
+                   free_thresh: float = FREE_THRESH) -> dict:
+    """map_quality(...).as_dict()."""
+    return map_quality(grid, occupied_thresh, free_thresh).as_dict()

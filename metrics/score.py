@@ -1,27 +1,29 @@
 """score_map: every map metric of one estimated map against the true map, in one call.
 
 Steps: occupied cell centres of the estimate -> alignment (align.py) -> the estimate resampled
-onto the truth's grid, extended to hold all of it (resample.py) -> TP/FP/FN (grid_portion.py),
-ADNN both ways (adnn.py), SSIM (ssim.py) and the ground-truth-free metrics of the estimate
-(gtfree.py).
+onto the truth's grid, extended to hold all of it (resample.py) -> a MapContext holding these
+-> every registered map metric (metrics.registry, in registration order: TP/FP/FN, ADNN both
+ways, the alignment used, SSIM and the ground-truth-free metrics of the estimate).
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
-from metrics.adnn import adnn_metrics
-from metrics.align import AlignConfig, align_points
+from metrics import registry
+from metrics.align import AlignConfig, Alignment, align_points
 from metrics.grid_portion import Classification, classify_masks
-from metrics.gtfree import gtfree_metrics
 from metrics.resample import extended_grid, resample_onto
-from metrics.ssim import ssim
 from metrics.truth import PreparedTruth, prepare_truth
 from slam.pose import transform_points
 from worlds.grid import OCCUPIED_THRESH, Grid
 
-__all__ = ["score_map", "classify", "Overlay", "save_overlay_png", "pose_of"]
+__all__ = ["score_map", "map_context", "score_context", "MapContext", "classify", "Overlay",
+           "save_overlay_png", "pose_of"]
+
+_EMPTY_NOTE = ("estimate has no occupied cell: precision, sensitivity and f1 set to 0, "
+               "ADNN undefined (NaN), alignment not refined")
 
 
 @dataclass(frozen=True)
@@ -33,6 +35,27 @@ class Overlay:
     est_prob: np.ndarray
     true_prob: np.ndarray
     classes: Classification
+
+
+@dataclass(frozen=True)
+class MapContext:
+    """What a map metric reads: the estimate, the prepared truth, the alignment, the estimate's
+    occupied cell centres (N, 2) in its own frame and aligned to the truth (world m), and the
+    overlay on the truth's grid, classified at `overlay.classes.tolerance` cells."""
+
+    estimate: Grid
+    truth: PreparedTruth
+    alignment: Alignment
+    est_points: np.ndarray
+    aligned_points: np.ndarray
+    overlay: Overlay
+    occupied_thresh: float
+
+    def at_tolerance(self, tolerance: int) -> MapContext:
+        """The same context with the overlay classified at `tolerance` cells."""
+        ov = _overlay(self.estimate, self.truth, self.alignment.pose, self.est_points,
+                      int(tolerance), self.occupied_thresh)
+        return replace(self, overlay=ov)
 
 
 def pose_of(align) -> np.ndarray:
@@ -68,6 +91,29 @@ def classify(estimate: Grid, truth: Grid | PreparedTruth, align, tolerance: int 
                     int(tolerance), occupied_thresh)
 
 
+def map_context(estimate: Grid, truth: Grid | PreparedTruth, align: str = "auto",
+                initial=(0.0, 0.0, 0.0), tolerance: int = 0,
+                occupied_thresh: float = OCCUPIED_THRESH,
+                config: AlignConfig | None = None) -> MapContext:
+    """Align `estimate` to `truth` and build the MapContext the map metrics read (arguments
+    as score_map's)."""
+    t = prepare_truth(truth, occupied_thresh)
+    est_pts = estimate.occupied_xy(occupied_thresh)
+    al = align_points(est_pts, t, align, initial, config or AlignConfig())
+    ov = _overlay(estimate, t, al.pose, est_pts, int(tolerance), occupied_thresh)
+    return MapContext(estimate, t, al, est_pts, transform_points(al.pose, est_pts), ov,
+                      occupied_thresh)
+
+
+def score_context(ctx: MapContext, gtfree: bool = True) -> dict:
+    """Every registered map metric of `ctx` as one flat dict (gtfree=False skips the metrics
+    registered as extra: SSIM and the ground-truth-free ones)."""
+    out = registry.compute("map", ctx, extra=gtfree)
+    if len(ctx.est_points) == 0:
+        out["note"] = _EMPTY_NOTE
+    return out
+
+
 def score_map(estimate: Grid, truth: Grid | PreparedTruth, align: str = "auto",
               initial=(0.0, 0.0, 0.0), tolerance: int = 0,
               occupied_thresh: float = OCCUPIED_THRESH, config: AlignConfig | None = None,
@@ -78,29 +124,16 @@ def score_map(estimate: Grid, truth: Grid | PreparedTruth, align: str = "auto",
     reuse its k-d tree across calls); align: "auto" | "none" | "start" | "icp" | "global";
     initial: (3,) prior transform estimate -> truth (x, y m, yaw rad) or None when unknown;
     tolerance: cells (Chebyshev) within which occupied cells match.
-    Returns a dict: precision, sensitivity, f1, tp, fp, fn, tp_truth, tolerance, adnn_cells,
-    adnn_m, adnn_reverse_cells, adnn_reverse_m, chamfer_cells, chamfer_m, align {"x","y","yaw"},
-    align_mode, align_inlier_fraction, align_rms_m, ssim, occupied_fraction, free_fraction,
-    corners, enclosed_areas, est_occupied, true_occupied, and `note` when something is
-    undefined (empty estimate: ratios 0, distances NaN).
+    Returns a dict: precision, sensitivity, f1, tp, fp, fn, tp_truth, tolerance, adnn_m,
+    adnn_cells, adnn_reverse_m, adnn_reverse_cells, chamfer_m, chamfer_cells, align
+    {"x","y","yaw"}, align_mode, align_inlier_fraction, align_rms_m, est_occupied,
+    true_occupied, resolution, ssim, occupied_fraction, free_fraction, corners,
+    enclosed_areas, then the keys of any other registered map metric, and `note` when
+    something is undefined (empty estimate: ratios 0, distances NaN).
     Raises InputError when the true map has no occupied cell.
     """
-    t = prepare_truth(truth, occupied_thresh)
-    est_pts = estimate.occupied_xy(occupied_thresh)
-    al = align_points(est_pts, t, align, initial, config or AlignConfig())
-    ov = _overlay(estimate, t, al.pose, est_pts, int(tolerance), occupied_thresh)
-    out = ov.classes.counts
-    out.update(adnn_metrics(transform_points(al.pose, est_pts), t.points, t.tree, t.resolution))
-    out.update(align=al.as_dict(), align_mode=al.mode, align_inlier_fraction=al.inlier_fraction,
-               align_rms_m=al.rms_m, est_occupied=int(len(est_pts)), true_occupied=int(len(t.points)),
-               resolution=t.resolution)
-    if gtfree:
-        out["ssim"] = ssim(ov.est_prob, ov.true_prob)
-        out.update(gtfree_metrics(estimate, occupied_thresh))
-    if len(est_pts) == 0:
-        out["note"] = ("estimate has no occupied cell: precision, sensitivity and f1 set to 0, "
-                       "ADNN undefined (NaN), alignment not refined")
-    return out
+    ctx = map_context(estimate, truth, align, initial, tolerance, occupied_thresh, config)
+    return score_context(ctx, gtfree)
 
 
 def save_overlay_png(estimate: Grid, truth: Grid | PreparedTruth, align, path, title: str = "",

@@ -7,10 +7,21 @@ unknown margins around both maps do not inflate it.
 """
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 from scipy import ndimage
 
-__all__ = ["ssim_map", "ssim"]
+from metrics.result import Result
+
+__all__ = ["Similarity", "ssim_map", "ssim"]
+
+
+@dataclass(frozen=True)
+class Similarity(Result):
+    """Mean SSIM of the aligned estimate against the truth (see ssim)."""
+
+    ssim: float
 
 _K1, _K2, _SIGMA, _TRUNCATE = 0.01, 0.03, 1.5, 3.5
 

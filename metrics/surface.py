@@ -20,15 +20,17 @@ from dataclasses import dataclass
 import numpy as np
 
 from metrics._surface_kernel import surface_match
+from metrics.result import Result
 from slam.pose import inverse, transform_points
 from worlds.grid import OCCUPIED_THRESH, Grid
 
-__all__ = ["visible_surfaces", "SurfaceClassification", "classify_surface", "DEFAULT_TAU_M"]
+__all__ = ["visible_surfaces", "SurfacePortion", "SurfaceClassification", "classify_surface",
+           "DEFAULT_TAU_M"]
 
 # tolerance of the surface form (m), 0.4 of a 0.05 m cell: the oracle's maps (true poses,
 # realistic noise) put walls in the cell behind a face that lies past the middle of its cell,
 # up to 2.5 cm from the face; below 0.02 the oracle's precision on slanted and off-grid walls
-# falls under 0.95 (bench_scripts/surface_metric.py)
+# falls under 0.95 (tools/surface_metric.py)
 DEFAULT_TAU_M = 0.02
 # a face exactly on a cell edge must touch both cells despite floating-point rounding of the
 # transform into map coordinates: a tolerance this small (cells, 5e-8 m) is added to tau
@@ -39,6 +41,20 @@ def visible_surfaces(world) -> np.ndarray:
     """(S, 4) x0, y0, x1, y1 (m): the boundary of the free space around the start, i.e. every
     wall and obstacle surface a lidar on the robot can see (World.visible_segments)."""
     return world.visible_segments
+
+
+@dataclass(frozen=True)
+class SurfacePortion(Result):
+    """The surface form's precision, sensitivity and F1, cell counts and surface lengths (m)."""
+
+    surface_precision: float
+    surface_sensitivity: float
+    surface_f1: float
+    surface_tp: int
+    surface_fp: int
+    surface_length_m: float
+    surface_covered_m: float
+    surface_tau_m: float
 
 
 @dataclass(frozen=True)
@@ -56,9 +72,8 @@ class SurfaceClassification:
     pose: np.ndarray           # alignment estimate -> world, (3,)
 
     @property
-    def counts(self) -> dict:
-        """surface_precision, surface_sensitivity, surface_f1, surface_tp, surface_fp,
-        surface_length_m, surface_covered_m, surface_tau_m."""
+    def portion(self) -> SurfacePortion:
+        """Precision, sensitivity, F1 and lengths of this classification."""
         seg_len = np.hypot(self.segments[:, 2] - self.segments[:, 0],
                            self.segments[:, 3] - self.segments[:, 1])
         total = float(seg_len.sum())
@@ -72,10 +87,14 @@ class SurfaceClassification:
         sensitivity = covered / total if total > 0 else 0.0
         f1 = (2 * precision * sensitivity / (precision + sensitivity)
               if precision + sensitivity > 0 else 0.0)
-        return {"surface_precision": float(precision), "surface_sensitivity": float(sensitivity),
-                "surface_f1": float(f1), "surface_tp": tp, "surface_fp": n - tp,
-                "surface_length_m": total, "surface_covered_m": covered,
-                "surface_tau_m": float(self.tau_m)}
+        return SurfacePortion(float(precision), float(sensitivity), float(f1), tp, n - tp, total,
+                              covered, float(self.tau_m))
+
+    @property
+    def counts(self) -> dict:
+        """portion.as_dict(): surface_precision, surface_sensitivity, surface_f1, surface_tp,
+        surface_fp, surface_length_m, surface_covered_m, surface_tau_m."""
+        return self.portion.as_dict()
 
     def fp_xy(self) -> np.ndarray:
         """(K, 2) world centres of the false-positive cells."""

@@ -10,12 +10,46 @@ RPE: over pairs (i, j) where the true path length from i to j first reaches `seg
 """
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
+from metrics.result import Result
 from slam.pose import compose, interpolate_poses, relative, wrap_angle
 from worlds.yamlio import InputError
 
-__all__ = ["rigid_fit_2d", "trajectory_error"]
+__all__ = ["TrajectoryContext", "TrajectoryError", "rigid_fit_2d", "ate_rpe",
+           "trajectory_error"]
+
+
+@dataclass(frozen=True)
+class TrajectoryContext:
+    """What a trajectory metric reads: the estimate's times (N,) s and poses (N, 3), the true
+    ones (M,) and (M, 3), and the RPE segment length (m)."""
+
+    times: np.ndarray
+    poses: np.ndarray
+    gt_t: np.ndarray
+    gt_poses: np.ndarray
+    segment_m: float = 1.0
+
+
+@dataclass(frozen=True)
+class TrajectoryError(Result):
+    """ATE and RPE of one trajectory (see trajectory_error); NaN where undefined."""
+
+    ate_m: float
+    ate_start_m: float
+    ate_yaw_rad: float
+    ate_align: dict
+    n_poses: int
+    segment_m: float
+    rpe_pairs: int
+    rpe_trans_m: float
+    rpe_rot_rad: float
+    rpe_trans_rmse_m: float
+    rpe_rot_rmse_rad: float
+    note: str | None = None
 
 
 def rigid_fit_2d(src: np.ndarray, dst: np.ndarray, weights: np.ndarray | None = None) -> np.ndarray:
@@ -75,6 +109,12 @@ def trajectory_error(est_t: np.ndarray, est_poses: np.ndarray, gt_t: np.ndarray,
     rpe_rot_rmse_rad, rpe_pairs, n_poses, segment_m and, when something is undefined, `note`.
     Raises InputError when fewer than 2 estimated poses fall inside the true time span.
     """
+    return ate_rpe(est_t, est_poses, gt_t, gt_poses, segment_m).as_dict()
+
+
+def ate_rpe(est_t: np.ndarray, est_poses: np.ndarray, gt_t: np.ndarray, gt_poses: np.ndarray,
+            segment_m: float = 1.0) -> TrajectoryError:
+    """trajectory_error as a TrajectoryError (same arguments, same values)."""
     est_t, est_poses = _check(est_t, est_poses, "estimated trajectory")
     gt_t, gt_poses = _check(gt_t, gt_poses, "true trajectory")
     inside = (est_t >= gt_t[0]) & (est_t <= gt_t[-1])
@@ -96,17 +136,13 @@ def trajectory_error(est_t: np.ndarray, est_poses: np.ndarray, gt_t: np.ndarray,
     j = np.searchsorted(dist, dist + segment_m - 1e-9, side="left")
     i = np.nonzero(j < len(dist))[0]
     j = j[i]
-    out = {"ate_m": ate, "ate_start_m": ate_start, "ate_yaw_rad": ate_yaw,
-           "ate_align": {"x": float(fit[0]), "y": float(fit[1]), "yaw": float(fit[2])},
-           "n_poses": int(len(est_t)), "segment_m": float(segment_m), "rpe_pairs": int(len(i))}
+    head = (ate, ate_start, ate_yaw, {"x": float(fit[0]), "y": float(fit[1]), "yaw": float(fit[2])},
+            int(len(est_t)), float(segment_m), int(len(i)))
     if len(i):
         err = relative(relative(gt[i], gt[j]), relative(est[i], est[j]))
         et = np.linalg.norm(err[:, :2], axis=1)
         er = np.abs(err[:, 2])
-        out.update(rpe_trans_m=float(et.mean()), rpe_rot_rad=float(er.mean()),
-                   rpe_trans_rmse_m=_rmse(et), rpe_rot_rmse_rad=_rmse(er))
-    else:
-        out.update(rpe_trans_m=float("nan"), rpe_rot_rad=float("nan"),
-                   rpe_trans_rmse_m=float("nan"), rpe_rot_rmse_rad=float("nan"),
-                   note=f"true path shorter than {segment_m} m: RPE undefined (NaN)")
-    return out
+        return TrajectoryError(*head, float(et.mean()), float(er.mean()), _rmse(et), _rmse(er))
+    nan = float("nan")
+    return TrajectoryError(*head, nan, nan, nan, nan,
+                           note=f"true path shorter than {segment_m} m: RPE undefined (NaN)")

@@ -9,7 +9,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from metrics._surface_kernel import surface_match, surface_match_ref
-from metrics.surface import classify_surface, visible_surfaces
+from metrics.surface import _EDGE_EPS_CELLS, classify_surface, visible_surfaces
 from worlds.grid import Grid
 from worlds.load import world_from_dict
 from worlds.raster import rasterize
@@ -38,8 +38,9 @@ def _brute_force(occupied: np.ndarray, grid: Grid, segments: np.ndarray, tau: fl
     x0 = grid.origin[0] + cols * grid.resolution
     y0 = grid.origin[1] + rows * grid.resolution
     boxes = shapely.box(x0, y0, x0 + grid.resolution, y0 + grid.resolution)
+    edge = _EDGE_EPS_CELLS * grid.resolution   # the kernel's "touching": within 1e-6 cell
     lines = shapely.multilinestrings([[s[:2], s[2:]] for s in segments])
-    tp = shapely.distance(boxes, lines) <= tau + 1e-9
+    tp = shapely.distance(boxes, lines) <= tau + edge
     precision = tp.mean() if len(tp) else 0.0
     pts, weights = [], []
     for s in segments:
@@ -50,7 +51,7 @@ def _brute_force(occupied: np.ndarray, grid: Grid, segments: np.ndarray, tau: fl
         weights.append(np.full(n, length / n))
     pts, weights = np.vstack(pts), np.concatenate(weights)
     union = shapely.union_all(boxes)
-    covered = shapely.distance(shapely.points(pts), union) <= tau + 1e-9
+    covered = shapely.distance(shapely.points(pts), union) <= tau + edge
     return float(precision), float(weights[covered].sum() / weights.sum())
 
 
