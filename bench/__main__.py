@@ -15,6 +15,9 @@ def build_parser() -> argparse.ArgumentParser:
 
     r = sub.add_parser("run", help="run worlds x algorithms x repeats, write results and report")
     r.add_argument("--world", help="world name(s) or YAML file(s), comma-separated, or 'all'")
+    r.add_argument("--logs", metavar="DIR|FILE,...",
+                   help="run on these recorded sensor logs (a folder of .npz or files) instead of "
+                        "recording; each log's world gives its true map")
     r.add_argument("--suite", metavar="NAME|FILE",
                    help="a suite of worlds (shipped: general) or a suite YAML file; each world is "
                         "recorded with --draws noise draws")
@@ -33,6 +36,9 @@ def build_parser() -> argparse.ArgumentParser:
                         "sensor-noise seed, or both")
     r.add_argument("--config", action="append", metavar="ALGO=YAML",
                    help="config file of one algorithm (repeatable)")
+    r.add_argument("--set", action="append", metavar="ALGO.FIELD=VALUE",
+                   help="set one config field of one algorithm, on top of --config "
+                        "(repeatable; e.g. pf.particles=50, graph.pose_graph.enable_loop_closure=false)")
     r.add_argument("--jobs", type=int, default=None, help="worker processes (default: all cores)")
     r.add_argument("--out", help="output directory (default runs/<UTC timestamp>)")
     r.add_argument("--resume", metavar="DIR", help="complete the run in DIR (same seeds)")
@@ -57,30 +63,37 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _spec_from_args(args):
-    from bench.plan import RunSpec, parse_configs, parse_worlds, resolve_algos
+    from bench.plan import RunSpec, parse_configs, parse_overrides, parse_worlds, read_log_set, resolve_algos
     from bench.runner import read_run
-    if args.world and args.suite:
-        raise InputError("give either --world or --suite, not both")
-    given = (args.world, args.suite, args.draws, args.min_coverage, args.algo, args.repeats,
-             args.seed, args.noise, args.vary)
+    if sum(bool(v) for v in (args.world, args.suite, args.logs)) > 1:
+        raise InputError("give one of --world, --suite and --logs")
+    given = (args.world, args.suite, args.logs, args.draws, args.min_coverage, args.algo,
+             args.repeats, args.seed, args.noise, args.vary)
     if args.resume:
         stored = RunSpec.from_json(read_run(Path(args.resume))["spec"])
-        if all(v is None for v in given) and not args.config:
+        if all(v is None for v in given) and not args.config and not args.set:
             return stored
         base = stored
     else:
-        if not args.world and not args.suite:
-            raise InputError("run: --world or --suite is required (a world name, a YAML file, a "
-                             "list or 'all'; or a suite such as 'general')")
+        if not args.world and not args.suite and not args.logs:
+            raise InputError("run: --world, --suite or --logs is required (a world name, a YAML "
+                             "file, a list or 'all'; a suite such as 'general'; a folder of logs)")
         base = None
     suite = None
     if args.suite:
         from bench.suite import load_suite
         suite = load_suite(args.suite)
     algos = resolve_algos(args.algo) if args.algo is not None or base is None else list(base.algos)
+    logs, noise = (base.logs, base.noise) if base else ((), None)
     if suite is not None:
         worlds, suite_name = suite.worlds, suite.name
         draws, repeats = suite.draws, 1
+    elif args.logs:
+        found = read_log_set(args.logs)
+        logs = tuple(path for path, *_ in found)
+        worlds = tuple(dict.fromkeys(world for _, world, _, _ in found))
+        noise = ",".join(sorted({n for *_, n in found if n})) or "recorded"
+        suite_name, draws, repeats = "", 1, 10
     elif args.world:
         worlds, suite_name, draws, repeats = tuple(parse_worlds(args.world)), "", 1, 10
     else:
@@ -89,7 +102,7 @@ def _spec_from_args(args):
         worlds=worlds,
         algos=tuple(algos),
         repeats=args.repeats if args.repeats is not None else repeats,
-        noise=args.noise or (base.noise if base else "realistic"),
+        noise=args.noise or noise or (base.noise if base else "realistic"),
         seed=args.seed if args.seed is not None else (base.seed if base else 0),
         vary=args.vary or (base.vary if base else "slam"),
         configs=parse_configs(args.config, algos) if args.config else (base.configs if base else {}),
@@ -97,6 +110,8 @@ def _spec_from_args(args):
         min_coverage=args.min_coverage if args.min_coverage is not None else
         (base.min_coverage if base else 0.95),
         suite=suite_name,
+        logs=logs if not (args.world or args.suite) else (),
+        overrides=parse_overrides(args.set, algos) if args.set else (base.overrides if base else {}),
     )
 
 

@@ -20,13 +20,13 @@ from pathlib import Path
 from typing import Any
 
 from worlds.yamlio import InputError, to_dict
+from slam.registry import ENTRY_POINT_GROUP
 
 __all__ = ["RunSpec", "Task", "VARY", "parse_worlds", "resolve_algos", "load_plugins",
-           "parse_configs", "seeds_for", "make_tasks", "ENTRY_POINT_GROUP"]
+           "parse_configs", "parse_overrides", "read_log_set", "seeds_for", "make_tasks",
+           "ENTRY_POINT_GROUP"]
 
 VARY = ("slam", "data", "both")
-# third-party algorithms register themselves when bench loads this entry-point group
-ENTRY_POINT_GROUP = "slam_bench.algorithms"
 
 
 @dataclass(frozen=True)
@@ -37,7 +37,9 @@ class RunSpec:
     noise: sensor-noise profile name or YAML path; seed: base seed; vary: slam|data|both;
     configs: algo -> config YAML path (absent: the algorithm's defaults); draws >= 1: noise
     draws per world (module docstring); min_coverage: a log whose lidar saw less of the true
-    walls gives failed rows; suite: the suite's name, for the report ("" outside a suite).
+    walls gives failed rows; suite: the suite's name, for the report ("" outside a suite);
+    logs: recorded sensor logs to run on instead of recording (absolute paths; see
+    read_log_set); overrides: algo -> nested mapping of config fields set on top of its config.
     """
 
     worlds: tuple[str, ...]
@@ -50,6 +52,8 @@ class RunSpec:
     draws: int = 1
     min_coverage: float = 0.95
     suite: str = ""
+    logs: tuple[str, ...] = ()
+    overrides: dict = field(default_factory=dict)
 
     def __post_init__(self):
         if isinstance(self.repeats, bool) or not isinstance(self.repeats, int) or self.repeats < 1:
@@ -71,6 +75,10 @@ class RunSpec:
         object.__setattr__(self, "worlds", tuple(self.worlds))
         object.__setattr__(self, "algos", tuple(self.algos))
         object.__setattr__(self, "configs", dict(self.configs))
+        object.__setattr__(self, "logs", tuple(self.logs))
+        object.__setattr__(self, "overrides", dict(self.overrides))
+        if self.logs and (self.draws != 1 or self.vary != "slam"):
+            raise InputError("--logs: each log is one draw; repeats vary the SLAM seed only")
 
     def to_json(self) -> dict:
         return {f.name: (list(v) if isinstance(v := getattr(self, f.name), tuple) else v)
@@ -112,13 +120,27 @@ def seeds_for(vary: str, seed: int, repeat: int) -> tuple[int, int]:
     raise InputError(f"--vary must be one of {', '.join(VARY)}, got {vary!r}")
 
 
-def make_tasks(spec: RunSpec, world_keys: list[str] | None = None) -> list[Task]:
+def make_tasks(spec: RunSpec, world_keys: list[str] | None = None,
+               log_seeds: list[tuple[str, int]] | None = None) -> list[Task]:
     """All tasks of `spec`, repeat-major so early rows cover every world and algorithm.
 
-    world_keys: the keys under which each world of spec.worlds is stored (default: as given).
+    world_keys: the keys under which each world of spec.worlds is stored (default: as given);
+    log_seeds: with spec.logs, (world key, log seed) of each log: the k-th log of a world is
+    its draw k.
     """
     keys = list(world_keys) if world_keys is not None else list(spec.worlds)
     tasks = []
+    if spec.logs:
+        draws: dict[str, int] = {}
+        per_log = []
+        for w, seed in log_seeds:
+            per_log.append((w, seed, draws.get(w, 0)))
+            draws[w] = draws.get(w, 0) + 1
+        for r in range(spec.repeats):
+            for w, seed, d in per_log:
+                for a in spec.algos:
+                    tasks.append(Task(w, a, d * spec.repeats + r, seed, spec.seed + r, d))
+        return tasks
     for d in range(spec.draws):
         for r in range(spec.repeats):
             log_seed, slam_seed = seeds_for(spec.vary, spec.seed, r)
@@ -152,39 +174,17 @@ def parse_worlds(text: str) -> list[str]:
 
 
 def load_plugins() -> list[str]:
-    """Import the built-in algorithms and every `slam_bench.algorithms` entry point.
-
-    Returns the names of the entry points loaded. A plugin that fails to import raises
-    InputError naming it.
-    """
-    from slam.base import _ensure_builtin_algorithms
-    _ensure_builtin_algorithms()
-    loaded = []
-    try:
-        from importlib.metadata import entry_points
-        eps = entry_points(group=ENTRY_POINT_GROUP)
-    except Exception:  # very old importlib.metadata: no plugins
-        eps = []
-    for ep in eps:
-        try:
-            obj = ep.load()
-        except Exception as err:
-            raise InputError(f"algorithm plugin '{ep.name}' ({ep.value}) failed to load: {err}") from None
-        # an entry point may name a module (registers on import) or a class to register
-        from slam.base import ALGORITHMS, register
-        if isinstance(obj, type) and ep.name not in ALGORITHMS:
-            register(ep.name)(obj)
-        loaded.append(ep.name)
-    return loaded
+    """The built-in algorithms and every `slam_bench.algorithms` entry point (slam.registry);
+    returns the names of the entry points loaded."""
+    from slam import registry
+    registry.algorithms()
+    return registry.load_plugins()
 
 
 def resolve_algos(text: str | None) -> list[str]:
     """'pf,gn' -> checked names; None/'all' -> every registered algorithm (built-ins first)."""
-    load_plugins()
-    from slam.base import ALGORITHMS
-    known = list(ALGORITHMS)
-    order = [a for a in ("pf", "gn", "graph", "oracle") if a in known] + \
-        sorted(a for a in known if a not in ("pf", "gn", "graph", "oracle"))
+    from slam import registry
+    order = registry.names()
     if text is None or str(text).strip() in ("", "all"):
         if not order:
             raise InputError("no SLAM algorithm is registered")
@@ -194,7 +194,7 @@ def resolve_algos(text: str | None) -> list[str]:
         a = a.strip()
         if not a:
             continue
-        if a not in ALGORITHMS:
+        if a not in order:
             raise InputError(f"unknown algorithm '{a}' (known: {', '.join(order) or 'none'})")
         if a not in names:
             names.append(a)
@@ -222,13 +222,101 @@ def parse_configs(items: list[str] | None, algos: list[str]) -> dict[str, str]:
     return out
 
 
-def load_config_checked(algo: str, path: str | None) -> Any:
-    """The config dataclass of `algo` from `path` (None: defaults); InputError on a bad file."""
-    from slam.base import load_config
-    return load_config(algo, path)
+def load_config_checked(algo: str, path: str | None, overrides: dict | None = None) -> Any:
+    """The config dataclass of `algo` from `path` (None: defaults) with `overrides` (a nested
+    mapping) set on top; InputError on a bad file or field."""
+    from slam.registry import load_config
+    cfg = load_config(algo, path)
+    if not overrides:
+        return cfg
+    merged = _merge(to_dict(cfg), overrides)
+    return load_config(algo, merged)
 
 
-def config_dict(algo: str, path: str | None) -> dict:
+def _merge(base: dict, over: dict) -> dict:
+    out = dict(base)
+    for k, v in over.items():
+        out[k] = _merge(out[k], v) if isinstance(v, dict) and isinstance(out.get(k), dict) else v
+    return out
+
+
+def parse_overrides(items: list[str] | None, algos: list[str]) -> dict[str, dict]:
+    """['pf.particles=50', 'graph.pose_graph.enable_loop_closure=false'] -> nested mappings per
+    algorithm (values read as YAML scalars), each checked against the algorithm's config."""
+    import yaml
+    out: dict[str, dict] = {}
+    for item in items or []:
+        key, eq, value = item.partition("=")
+        algo, dot, path = key.strip().partition(".")
+        if not eq or not dot or not path:
+            raise InputError(f"--set expects ALGO.FIELD=VALUE (e.g. pf.particles=50), got '{item}'")
+        if algo not in algos:
+            raise InputError(f"--set {item}: algorithm '{algo}' is not in this run ({', '.join(algos)})")
+        try:
+            parsed = yaml.safe_load(value)
+        except yaml.YAMLError:
+            raise InputError(f"--set {item}: the value is not a YAML scalar") from None
+        node = out.setdefault(algo, {})
+        *parents, leaf = path.split(".")
+        for p in parents:
+            node = node.setdefault(p, {})
+        node[leaf] = parsed
+    for algo, over in out.items():
+        try:
+            load_config_checked(algo, None, over)
+        except InputError as err:
+            raise InputError(f"--set: {algo}: {str(err).replace('<config>: ', '')}") from None
+    return out
+
+
+def read_log_set(text: str) -> list[tuple[str, str, int, str]]:
+    """--logs DIR|FILE[,FILE...] -> (absolute log path, world reference, log seed, noise name)
+    of every sensor log (.npz), sorted by path. The world is the log's own (meta world_source,
+    else its shipped name world), so its true map can be made; InputError names the log when
+    it is unreadable or its world cannot be found."""
+    from sim.log import read_log
+    items = [Path(t.strip()).expanduser() for t in str(text or "").split(",") if t.strip()]
+    if not items:
+        raise InputError("--logs is empty")
+    files = []
+    for it in items:
+        if it.is_dir():
+            files += sorted(it.glob("*.npz"))
+        elif it.is_file():
+            files.append(it)
+        else:
+            raise InputError(f"--logs {it}: no such file or folder")
+    if not files:
+        raise InputError(f"--logs {text}: no .npz sensor log there")
+    out, seen = [], {}
+    for f in sorted({p.resolve() for p in files}):
+        meta = read_log(f).meta
+        world = _log_world(f, meta)
+        seed = int(meta.get("seed", 0))
+        key = (world, seed)
+        if key in seen:
+            raise InputError(f"--logs: {f} and {seen[key]} are both {world} with seed {seed}; "
+                             "run them separately")
+        seen[key] = f
+        out.append((str(f), world, seed, str(meta.get("noise", {}).get("name", ""))))
+    return out
+
+
+def _log_world(path: Path, meta: dict) -> str:
+    """The world of a recorded log as a loadable reference (a YAML path or a shipped name)."""
+    import worlds
+    src = str(meta.get("world_source") or "")
+    for cand in (Path(src), path.parent / src):
+        if src and cand.suffix in (".yaml", ".yml") and cand.is_file():
+            return str(cand.resolve())
+    name = str(meta.get("world") or "")
+    if name in worlds.list_worlds():
+        return name
+    raise InputError(f"{path}: meta.world: the log's world '{name or src}' is not a shipped world "
+                     "and its YAML file was not found (logs without a world cannot be scored)")
+
+
+def config_dict(algo: str, path: str | None, overrides: dict | None = None) -> dict:
     """The effective config of `algo` as plain data (for run.json)."""
-    return to_dict(load_config_checked(algo, path))
+    return to_dict(load_config_checked(algo, path, overrides))
 

@@ -143,7 +143,7 @@ def _write_run_json(out_dir: Path, spec: RunSpec, world_map: dict, world_files: 
         "versions": versions(),
         "worlds": {k: {"name": w.name, "file": str(world_files[k] or "")}
                    for k, w in world_map.items()},
-        "configs": {a: config_dict(a, spec.configs.get(a)) for a in spec.algos},
+        "configs": {a: config_dict(a, spec.configs.get(a), spec.overrides.get(a)) for a in spec.algos},
     })
     if resumed_from is not None:
         data.setdefault("resumed", []).append({
@@ -172,9 +172,9 @@ def run_benchmark(spec: RunSpec, out_dir: str | Path, jobs: int | None = None,
                          "resume it without --world/--algo/--repeats/--seed/--noise/--vary/--config")
     load_plugins()
     for algo in spec.algos:
-        load_config_checked(algo, spec.configs.get(algo))  # unknown algo / bad config: fail now
+        load_config_checked(algo, spec.configs.get(algo), spec.overrides.get(algo))  # fail now
     import sim
-    if hasattr(sim, "load_profile"):
+    if hasattr(sim, "load_profile") and not spec.logs:
         sim.load_profile(spec.noise)  # a bad --noise fails here, before any work
     world_map, world_files = load_worlds(list(spec.worlds))
     _write_run_json(out_dir, spec, world_map, world_files, argv, previous)
@@ -186,11 +186,17 @@ def run_benchmark(spec: RunSpec, out_dir: str | Path, jobs: int | None = None,
         truth = worlds.rasterize(w)
         infos[key] = WorldInfo(key, truth, tuple(float(v) for v in w.bounds), str(w.source or ""))
         _save_truth(out_dir, key, w, truth)
-    configs = {a: load_config_checked(a, spec.configs.get(a)) for a in spec.algos}
-    from slam.base import ALGORITHMS
-    algo_classes = {a: ALGORITHMS[a] for a in spec.algos}
+    configs = {a: load_config_checked(a, spec.configs.get(a), spec.overrides.get(a)) for a in spec.algos}
+    from slam import registry
+    algo_classes = {a: registry.get(a) for a in spec.algos}
 
-    all_tasks = make_tasks(spec, list(world_map))
+    # --logs: the given files are the logs (world key, seed) -> path; nothing is recorded
+    key_of = dict(zip(spec.worlds, world_map))
+    given = {}
+    if spec.logs:
+        from bench.plan import read_log_set
+        given = {(key_of[world], seed): Path(path) for path, world, seed, _ in read_log_set(",".join(spec.logs))}
+    all_tasks = make_tasks(spec, list(world_map), list(given) if spec.logs else None)
     todo = [t for t in all_tasks if t.key not in store]
     by_log: dict[tuple[str, int], list[Task]] = {}
     for t in todo:
@@ -259,7 +265,7 @@ def run_benchmark(spec: RunSpec, out_dir: str | Path, jobs: int | None = None,
     try:
         for lkey in by_log:
             key, seed = lkey
-            path = cache.log_path(world_map[key], seed, spec.noise, world_files[key])
+            path = given.get(lkey) or cache.log_path(world_map[key], seed, spec.noise, world_files[key])
             if path.exists():
                 log_ready(lkey, path)
             else:

@@ -99,7 +99,7 @@ def warm_up(algo: str, log, config=None) -> None:
         return
     _WARM.add(algo)
     import dataclasses
-    from slam.base import run_algorithm
+    from slam.replay import run_algorithm
     n = min(WARMUP_SCANS, log.n_scans)
     head = dataclasses.replace(log, scan_t=log.scan_t[:n], scan_ranges=log.scan_ranges[:n])
     try:
@@ -115,10 +115,8 @@ def compile_algorithm(algo: str, log_source, config=None, algo_cls: type | None 
     different algorithms side by side and each kernel is compiled once, then loaded from
     numba's cache by the other workers, instead of every worker compiling every algorithm.
     """
-    from slam.base import ALGORITHMS, _ensure_builtin_algorithms, register
-    _ensure_builtin_algorithms()
-    if algo_cls is not None and algo not in ALGORITHMS:
-        register(algo)(algo_cls)
+    from slam import registry
+    registry.ensure(algo, algo_cls)
     try:
         warm_up(algo, _load_log(log_source), config)
     except Exception:
@@ -199,10 +197,9 @@ def execute(task, world: WorldInfo, log_source, config=None, noise: str = "", va
     row = new_row(task, noise, vary)
     arrays = None
     try:
-        from slam.base import ALGORITHMS, _ensure_builtin_algorithms, register, run_algorithm
-        _ensure_builtin_algorithms()
-        if algo_cls is not None and task.algo not in ALGORITHMS:
-            register(task.algo)(algo_cls)
+        from slam import registry
+        from slam.replay import run_algorithm
+        registry.ensure(task.algo, algo_cls)
         log = _load_log(log_source)
         warm_up(task.algo, log, config)
         result = run_algorithm(task.algo, log, config=config, seed=int(task.slam_seed))

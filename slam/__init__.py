@@ -1,10 +1,13 @@
-"""2D lidar SLAM: one interface (slam.base), the shared core (occupancy grid, ray insertion,
-interpolation, scan preprocessing, output-map building) and the algorithms registered by
-name: `oracle` (true poses), `gn` (Hector family), `pf` (Gmapping family), `graph`
-(Cartographer family). `run_algorithm(name, log, config, seed)` runs one; `write_result`
-writes map.yaml + map.pgm, trajectory.tum, stats.json and config.yaml."""
-from slam.base import ALGORITHMS, SlamResult, load_config, register, run, run_algorithm
+"""2D lidar SLAM: one contract (slam.base.Slam), a registry of algorithms by name
+(slam.registry: `oracle`, `gn` Hector family, `pf` Gmapping family, `graph` Cartographer
+family, and entry-point plugins), the shared components (pose algebra, scan preprocessing,
+occupancy grids, Gauss-Newton kernels, the output map) and the replay loop.
+`run_algorithm(name, log, config, seed)` runs one; `write_result` writes map.yaml + map.pgm,
+trajectory.tum, stats.json and config.yaml."""
+from slam.base import Slam, SlamResult
 from slam.io import read_result, write_result
+from slam.registry import algorithms, load_config, names, register
+from slam.replay import run, run_algorithm
 
-__all__ = ["ALGORITHMS", "SlamResult", "load_config", "register", "run", "run_algorithm",
-           "write_result", "read_result"]
+__all__ = ["Slam", "SlamResult", "algorithms", "names", "load_config", "register", "run",
+           "run_algorithm", "write_result", "read_result"]

@@ -1,5 +1,5 @@
 """Command line: `python -m slam run --algo NAME --log LOG --out DIR [--config YAML] [--seed S]`,
-`python -m slam list`. User errors print one line `error: ...` and exit with code 2."""
+`python -m slam list`, `python -m slam fields NAME [--update PAGE]`. User errors print one line `error: ...` and exit with code 2."""
 from __future__ import annotations
 
 import argparse
@@ -17,14 +17,18 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     r.add_argument("--quiet", action="store_true", help="print nothing on success")
     sub.add_parser("list", help="list the algorithms")
+    f = sub.add_parser("fields", help="print an algorithm's config fields as a Markdown table")
+    f.add_argument("algo", help="algorithm name (see `list`)")
+    f.add_argument("--update", metavar="PAGE", help="write the table into PAGE between its "
+                   "<!-- fields --> markers instead")
     return p
 
 
 def cmd_run(algo: str, log: str, out: str, config: str | None = None, seed: int = 0) -> dict:
     """Run `algo` on the log file, write the result files into `out`; returns the stats."""
     from sim.log import read_log
-    from slam.base import run_algorithm
     from slam.io import write_result
+    from slam.replay import run_algorithm
 
     result = run_algorithm(algo, read_log(log), config=config, seed=seed)
     write_result(result, out)
@@ -32,11 +36,36 @@ def cmd_run(algo: str, log: str, out: str, config: str | None = None, seed: int 
 
 
 def cmd_list() -> list[str]:
-    """Names of the registered algorithms."""
-    from slam.base import ALGORITHMS, _ensure_builtin_algorithms
+    """One line per known algorithm (built-ins and entry-point plugins): name, class, and
+    what it needs from the log."""
+    from slam.registry import algorithms
 
-    _ensure_builtin_algorithms()
-    return sorted(ALGORITHMS)
+    lines = []
+    for name, cls in algorithms().items():
+        needs = [w for w, flag in (("odometry", cls.needs_odometry),
+                                   ("ground truth", cls.uses_ground_truth)) if flag]
+        lines.append(f"{name:<8} {cls.__module__}.{cls.__qualname__}"
+                     + (f"  (needs {', '.join(needs)})" if needs else ""))
+    return lines
+
+
+def cmd_fields(algo: str, update: str | None = None) -> str:
+    """The field table of `algo`; with `update`, also written into that Markdown page."""
+    from pathlib import Path
+
+    from slam.fields import field_table, with_field_table
+    from slam.registry import get
+    from worlds.yamlio import InputError, atomic_write_text
+
+    cls = get(algo).config_class
+    if update is None:
+        return field_table(cls)
+    page = Path(update)
+    try:
+        atomic_write_text(page, with_field_table(page.read_text(), cls))
+    except (OSError, ValueError) as err:
+        raise InputError(f"{page}: {err}") from None
+    return f"{page}: field table of {algo} written"
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -45,8 +74,10 @@ def main(argv: list[str] | None = None) -> int:
 
     try:
         if args.command == "list":
-            for name in cmd_list():
-                print(name)
+            for line in cmd_list():
+                print(line)
+        elif args.command == "fields":
+            print(cmd_fields(args.algo, args.update), end="" if args.update is None else "\n")
         else:
             stats = cmd_run(args.algo, args.log, args.out, args.config, args.seed)
             if not args.quiet:

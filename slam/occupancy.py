@@ -18,8 +18,9 @@ import numpy as np
 from worlds.grid import Grid
 from slam._kernels.insert import insert_rays_inplace
 from slam._kernels.prob import logodds_to_prob
+from slam.pose import transform_points
 
-__all__ = ["GrowingGrid", "LogOddsGrid", "ReflectanceGrid", "GridConfig", "logodds"]
+__all__ = ["GrowingGrid", "LogOddsGrid", "ReflectanceGrid", "GridConfig", "logodds", "insert_scan_points"]
 
 
 def logodds(p: float) -> float:
@@ -38,7 +39,6 @@ class GridConfig:
     p_occupied: float = 0.9    # occupancy probability a hit cell is updated with (log-odds > 0)
     l_min: float = -5.0        # log-odds clamp below (keeps cells able to change back)
     l_max: float = 5.0         # log-odds clamp above
-    snap_cells: int = 0        # a hit moves back up to this many cells onto a stronger cell on its ray
 
     def __post_init__(self):
         if self.resolution <= 0:
@@ -47,8 +47,6 @@ class GridConfig:
             raise ValueError(f"need 0 < p_free < 0.5 < p_occupied < 1, got {self.p_free}, {self.p_occupied}")
         if not self.l_min < 0 < self.l_max:
             raise ValueError(f"need l_min < 0 < l_max, got {self.l_min}, {self.l_max}")
-        if self.snap_cells < 0:
-            raise ValueError(f"snap_cells must be >= 0, got {self.snap_cells}")
 
 
 class GrowingGrid:
@@ -153,15 +151,14 @@ class LogOddsGrid(GrowingGrid):
     resolution: m per cell; center: (2,) world x, y the first block is centred on;
     l_free, l_occ: log-odds added to freed / hit cells; l_min, l_max: clamping bounds;
     block: growth step in cells (the grid grows by whole blocks, at least `margin` m
-    beyond any inserted point); snap_cells: see slam._kernels.insert (0 = plain insertion).
+    beyond any inserted point).
     """
 
     def __init__(self, resolution: float = 0.05, center=(0.0, 0.0), l_free: float = logodds(0.4),
                  l_occ: float = logodds(0.9), l_min: float = -5.0, l_max: float = 5.0,
-                 block: int = 64, size: float = 8.0, margin: float = 0.5, snap_cells: int = 0):
+                 block: int = 64, size: float = 8.0, margin: float = 0.5):
         self.l_free, self.l_occ = float(l_free), float(l_occ)
         self.l_min, self.l_max = float(l_min), float(l_max)
-        self.snap_cells = int(snap_cells)
         super().__init__(resolution, center, block, size, margin)
 
     def _layers(self) -> tuple:
@@ -171,17 +168,17 @@ class LogOddsGrid(GrowingGrid):
     def from_config(cls, cfg: GridConfig, center=(0.0, 0.0), **kw) -> "LogOddsGrid":
         """A grid with the resolution and update values of `cfg`, first block centred on `center`."""
         return cls(cfg.resolution, center, logodds(cfg.p_free), logodds(cfg.p_occupied),
-                   cfg.l_min, cfg.l_max, snap_cells=cfg.snap_cells, **kw)
+                   cfg.l_min, cfg.l_max, **kw)
 
     # --- updates ----------------------------------------------------------------------
-    def insert_scan(self, sensor_pose, points_world_xy, hit_mask=None, l_occ: float | None = None,
-                    l_free: float | None = None, free_margin: np.ndarray | None = None) -> int:
+    def insert_scan(self, sensor_pose, points_world_xy, hit_mask=None,
+                    free_margin: np.ndarray | None = None) -> int:
         """Insert one scan: rays from the sensor to each point.
 
         sensor_pose: (2,) or (3,) world pose of the lidar (only x, y are used);
         points_world_xy: (N, 2) m ray end points; hit_mask: (N,) bool, True where the ray hit
         something (occupied end cell), False for no-return rays (free to the end). Default: all hits.
-        l_occ, l_free: override the grid's update values for this call. free_margin: None or (N,)
+        free_margin: None or (N,)
         m; a hit ray frees space only up to this far short of its end point (the range noise band,
         see slam._kernels.insert). Returns the number of cells updated.
         """
@@ -192,9 +189,7 @@ class LogOddsGrid(GrowingGrid):
         if len(pts) == 0:
             return 0
         n = insert_rays_inplace(self.logodds, self.meta, o, pts, hits,
-                                self.l_free if l_free is None else float(l_free),
-                                self.l_occ if l_occ is None else float(l_occ),
-                                self.l_min, self.l_max, self.snap_cells,
+                                self.l_free, self.l_occ, self.l_min, self.l_max,
                                 None if free_margin is None
                                 else np.ascontiguousarray(free_margin, dtype=np.float64).reshape(-1))
         self.version += 1
@@ -261,3 +256,12 @@ class ReflectanceGrid(GrowingGrid):
         out = np.full(self.shape, unknown, dtype=np.float64)
         out[seen] = self.reflected[seen] / self.visited[seen]
         return out
+
+
+def insert_scan_points(grid: LogOddsGrid | ReflectanceGrid, pts, pose: np.ndarray) -> None:
+    """Rays from the lidar to every hit (occupied end) and miss (free end) of a preprocessed
+    scan `pts` (slam.preprocess.ScanPoints) at robot `pose` (3,)."""
+    sensor = transform_points(pose, pts.origin[None, :])[0]
+    ends = transform_points(pose, np.vstack([pts.points, pts.misses]))
+    hits = np.r_[np.ones(len(pts.points), bool), np.zeros(len(pts.misses), bool)]
+    grid.insert_scan(sensor, ends, hits)

@@ -1,7 +1,7 @@
 """Scan preprocessing: a raw lidar revolution -> end points in the robot (base) frame.
 
 Steps: range limits (NaN and readings below range_min dropped; inf or >= range_max = no
-return), optional angle decimation and voxel filter, the lidar mounting offset, and motion
+return), optional smoothing over neighbouring beams, the lidar mounting offset, and motion
 de-skew: beam j is taken at scan.t + j * time_increment (slam/base.py), so with the robot
 moving at a constant twist (v_x, v_y, w) during the revolution, the beam's pose relative to
 the robot at scan.t is the SE(2) exponential of twist * j * time_increment. The points come
@@ -27,8 +27,6 @@ class PreprocessConfig:
 
     range_min: float = 0.0    # m; readings below max(this, the sensor's range_min) are dropped
     range_max: float = 0.0    # m; 0 = the sensor's range_max; readings at or beyond it are "no return"
-    angle_step: int = 1       # keep every k-th beam (1 = all)
-    voxel: float = 0.0        # m; > 0 keeps the first point of each voxel of this size
     deskew: bool = True       # undo the motion during the revolution when a twist is known
     free_range: float = 0.0   # m; no-return beams mark free space up to this range (0 = ignore them)
     smooth_beams: int = 0     # half window: each hit point is replaced by the mean of its 2k+1
@@ -36,9 +34,7 @@ class PreprocessConfig:
     smooth_jump: float = 0.1  # neighbours whose range differs by more than this fraction are left out
 
     def __post_init__(self):
-        if self.angle_step < 1:
-            raise ValueError(f"angle_step must be >= 1, got {self.angle_step}")
-        for name in ("range_min", "range_max", "voxel", "free_range", "smooth_beams", "smooth_jump"):
+        for name in ("range_min", "range_max", "free_range", "smooth_beams", "smooth_jump"):
             if getattr(self, name) < 0:
                 raise ValueError(f"{name} must be >= 0, got {getattr(self, name)}")
 
@@ -88,15 +84,6 @@ def smooth_ranges(ranges: np.ndarray, valid: np.ndarray, half: int, jump: float,
                    bool(circular))
 
 
-def _voxel_keep(pts: np.ndarray, size: float) -> np.ndarray:
-    """Indices (sorted) of the first point in each voxel of `size` m."""
-    if len(pts) == 0:
-        return np.zeros(0, dtype=np.int64)
-    keys = np.floor(pts / size).astype(np.int64)
-    _, first = np.unique(keys, axis=0, return_index=True)
-    return np.sort(first)
-
-
 def preprocess(scan: Scan, cfg: PreprocessConfig = PreprocessConfig(),
                twist: np.ndarray | None = None) -> ScanPoints:
     """Clean `scan` and return its points in the robot frame at scan.t.
@@ -107,9 +94,7 @@ def preprocess(scan: Scan, cfg: PreprocessConfig = PreprocessConfig(),
     ranges = np.asarray(scan.ranges, dtype=np.float64)
     angles = np.asarray(scan.angles, dtype=np.float64)
     idx = np.arange(len(ranges))
-    if cfg.angle_step > 1:
-        idx = idx[::cfg.angle_step]
-    r = ranges[idx]
+    r = ranges
     rmin = max(cfg.range_min, float(scan.range_min), 0.0)
     rmax = cfg.range_max if cfg.range_max > 0 else float(scan.range_max)
     with np.errstate(invalid="ignore"):
@@ -120,9 +105,8 @@ def preprocess(scan: Scan, cfg: PreprocessConfig = PreprocessConfig(),
     if cfg.smooth_beams > 0 and hit.any():
         # beams are equally spaced over the revolution: the fan's angle step is the beams' step
         step = float(np.median(np.diff(angles))) if len(angles) > 1 else 0.0
-        full = len(angles) > 1 and abs(step * len(angles) - 2 * np.pi) < 1e-6 and cfg.angle_step == 1
-        along, across = smooth_ranges(r, hit, cfg.smooth_beams, cfg.smooth_jump,
-                                           step * cfg.angle_step, full)
+        full = len(angles) > 1 and abs(step * len(angles) - 2 * np.pi) < 1e-6
+        along, across = smooth_ranges(r, hit, cfg.smooth_beams, cfg.smooth_jump, step, full)
         r = np.where(hit, along, r)
 
     def to_robot(beams: np.ndarray, rng_: np.ndarray, side: np.ndarray | None = None) -> np.ndarray:
@@ -140,8 +124,6 @@ def preprocess(scan: Scan, cfg: PreprocessConfig = PreprocessConfig(),
 
     hb = idx[hit]
     points = to_robot(hb, r[hit], across[hit])
-    if cfg.voxel > 0 and len(points):
-        points = points[_voxel_keep(points, cfg.voxel)]
     mb = idx[miss]
     misses = to_robot(mb, np.full(len(mb), min(cfg.free_range, rmax))) if len(mb) else np.zeros((0, 2))
     return ScanPoints(np.ascontiguousarray(points), np.ascontiguousarray(misses), off[:2].copy())

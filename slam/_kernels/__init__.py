@@ -1,5 +1,6 @@
 """Numba kernels shared by the SLAM algorithms, each with a plain-numpy reference.
 
 insert: log-odds ray insertion; interp: bilinear occupancy value and gradient (Hector);
-gn_step: Gauss-Newton normal equations of scan-to-map matching.
+gauss_newton: Gauss-Newton normal equations and steps of scan-to-map matching (gn, pf);
+smooth: range smoothing over neighbouring beams; prob: log-odds to probability.
 """

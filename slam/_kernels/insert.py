@@ -6,8 +6,7 @@ update (cells found from the sorted crossings of each segment with the grid line
 Update rule for one scan (as Hector's and Cartographer's "each cell once per scan", hits first):
 every cell holding the end point of a hit ray gets `l_occ` once; every other cell crossed by
 any ray (from the sensor origin to the end point; for a no-return ray the end cell too) gets
-`l_free` once. Optionally (snap_cells > 0) a hit moves back along its ray onto a cell of
-higher log-odds just before it (see insert_rays_inplace). A cell hit in this scan is not also freed by it, so walls seen at grazing
+`l_free` once. A cell hit in this scan is not also freed by it, so walls seen at grazing
 angles are not eroded by neighbouring beams. Values are clamped to [l_min, l_max]; NaN means
 "never touched" and counts as 0 before the update. Cells outside the grid are skipped.
 
@@ -89,22 +88,11 @@ def _traverse(x0, y0, x1, y1, path):
 
 
 @njit(cache=True)
-def _value(logodds, r, c, rows, cols):
-    if r < 0 or r >= rows or c < 0 or c >= cols:
-        return -np.inf
-    v = logodds[r, c]
-    return 0.0 if v != v else v
-
-
-@njit(cache=True)
 def insert_rays_inplace(logodds, grid_meta, origin_xy, ends_xy, hit_mask, l_free, l_occ, l_min, l_max,
-                        snap_cells=0, free_margin=None):
+                        free_margin=None):
     """Update `logodds` (rows, cols) in place with the rays origin_xy (2,) -> ends_xy (N, 2) (m).
 
-    hit_mask: (N,) bool, True where the ray ended on an obstacle. snap_cells: a hit is moved
-    back along its ray, up to this many cells, while the cell before it holds higher log-odds
-    (before this scan): range noise past a mapped surface then reinforces the surface instead
-    of thickening the wall behind it; the cells between stay untouched. free_margin: None or
+    hit_mask: (N,) bool, True where the ray ended on an obstacle. free_margin: None or
     (N,) m >= 0; a hit ray frees only the cells up to the one holding the point free_margin
     short of its end, the rest up to the hit is marked observed (module docstring). Returns
     the number of cells whose value changed or that became observed.
@@ -114,24 +102,16 @@ def insert_rays_inplace(logodds, grid_meta, origin_xy, ends_xy, hit_mask, l_free
     mark = np.zeros((rows, cols), dtype=np.uint8)
     path = np.empty((rows + cols + 4, 2), dtype=np.int64)
     n = ends_xy.shape[0]
-    hit_at = np.full(n, -1, dtype=np.int64)   # path index of each ray's (snapped) hit cell
+    hit_at = np.full(n, -1, dtype=np.int64)   # path index of each ray's hit cell
     hit_rc = np.full((n, 2), -1, dtype=np.int64)
     x0 = (origin_xy[0] - ox) / res
     y0 = (origin_xy[1] - oy) / res
-    # pass 1: where each hit ray's hit lands (read-only, so the order of rays does not matter)
+    # pass 1: the hit cells (read-only, so the order of rays does not matter)
     for i in range(n):
         if not hit_mask[i]:
             continue
         m = _traverse(x0, y0, (ends_xy[i, 0] - ox) / res, (ends_xy[i, 1] - oy) / res, path)
         k = m - 1
-        for _ in range(snap_cells):
-            if k == 0:
-                break
-            if (_value(logodds, path[k - 1, 1], path[k - 1, 0], rows, cols)
-                    > _value(logodds, path[k, 1], path[k, 0], rows, cols)):
-                k -= 1
-            else:
-                break
         hit_at[i] = k
         hit_rc[i, 0] = path[k, 1]
         hit_rc[i, 1] = path[k, 0]
@@ -210,16 +190,12 @@ def _cells_on_segment(x0: float, y0: float, x1: float, y1: float) -> np.ndarray:
 
 
 def insert_rays_ref(logodds, grid_meta, origin_xy, ends_xy, hit_mask, l_free, l_occ, l_min, l_max,
-                    snap_cells=0, free_margin=None):
+                    free_margin=None):
     """Reference of insert_rays_inplace: returns a new array, input unchanged."""
     out = np.array(logodds, dtype=np.float64, copy=True)
     ox, oy, res, rows, cols = grid_meta
     rows, cols = int(rows), int(cols)
     base = np.nan_to_num(out, nan=0.0)
-
-    def value(cell):
-        c, r = cell
-        return base[r, c] if 0 <= r < rows and 0 <= c < cols else -np.inf
 
     o = ((origin_xy[0] - ox) / res, (origin_xy[1] - oy) / res)
     margins = np.zeros(len(ends_xy)) if free_margin is None else np.asarray(free_margin, dtype=np.float64)
@@ -229,8 +205,6 @@ def insert_rays_ref(logodds, grid_meta, origin_xy, ends_xy, hit_mask, l_free, l_
         cells = [tuple(cr) for cr in _cells_on_segment(o[0], o[1], e[0], e[1])]
         if hit:
             k = len(cells) - 1
-            while k > 0 and len(cells) - 1 - k < snap_cells and value(cells[k - 1]) > value(cells[k]):
-                k -= 1
             hits.add(cells[k])
             cells = cells[:k]
             if margin > 0:

@@ -13,7 +13,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
-from slam.mapper import MapperConfig
+from slam.output_map import OutputMapConfig
 
 __all__ = ["GraphConfig", "LocalConfig", "GlobalConfig", "MotionFilterConfig", "SubmapsConfig", "TsdfInserterConfig",
            "RealTimeCorrelativeConfig", "CeresScanMatcherConfig", "FastCorrelativeConfig",
@@ -30,10 +30,9 @@ def _positive(obj, *names):
 class MotionFilterConfig:
     """TRAJECTORY_BUILDER_2D.motion_filter: a scan becomes a node only after this much motion."""
 
-    max_time_seconds: float = 5.0
-    max_distance_meters: float = 0.2
-    max_angle_radians: float = math.radians(0.1)   # TB3 (Cartographer 1 deg): nearly every scan
-                                                   # becomes a node; measured far better maps here
+    max_time_seconds: float = 5.0             # s since the last node
+    max_distance_meters: float = 0.2          # m from the last node
+    max_angle_radians: float = math.radians(0.1)   # TB3 (Cartographer 1 deg): most scans become nodes
 
 
 @dataclass(frozen=True)
@@ -49,19 +48,19 @@ class AdaptiveVoxelConfig:
 class RealTimeCorrelativeConfig:
     """TRAJECTORY_BUILDER_2D.real_time_correlative_scan_matcher (Olson's exhaustive search)."""
 
-    linear_search_window: float = 0.1
-    angular_search_window: float = math.radians(20.0)
-    translation_delta_cost_weight: float = 1e-1
-    rotation_delta_cost_weight: float = 1e-1
+    linear_search_window: float = 0.1                   # m either side of the prediction
+    angular_search_window: float = math.radians(20.0)   # rad either side
+    translation_delta_cost_weight: float = 1e-1         # penalty per m from the prediction
+    rotation_delta_cost_weight: float = 1e-1            # penalty per rad from the prediction
 
 
 @dataclass(frozen=True)
 class CeresScanMatcherConfig:
     """TRAJECTORY_BUILDER_2D.ceres_scan_matcher: least squares on the interpolated grid."""
 
-    occupied_space_weight: float = 1.0
-    translation_weight: float = 10.0         # the local SLAM's default is raised to 100 (see LocalConfig)
-    rotation_weight: float = 40.0
+    occupied_space_weight: float = 1.0       # weight of the grid term (1 - M) per point
+    translation_weight: float = 10.0         # pull to the prediction per m (local SLAM: 100)
+    rotation_weight: float = 40.0            # pull to the prediction per rad
     max_num_iterations: int = 20     # ceres_solver_options.max_num_iterations
 
 
@@ -71,19 +70,15 @@ class TsdfInserterConfig:
     slam/graph/tsdf.py). Not implemented: update_free_space (false, as Cartographer's default)
     and update_weight_range_exponent (0, its default)."""
 
-    # ours 0.1 (Cartographer 0.3): the matcher's residual is tsd / truncation, so the band's
-    # slope sets how hard the scan pulls against the odometry prior; with 0.3 m the loop world
-    # (lanes 0.55 m from the walls) drifted 2.4 cm on average (P 0.68), with 0.1 m 1.2 cm (0.95)
+    # ours 0.1 (Cartographer 0.3): the residual is tsd / truncation, so the band's slope sets
+    # how hard a scan pulls against the odometry prior
     truncation_distance: float = 0.1         # m: cells this far before and behind a hit, along its ray
     maximum_weight: float = 10.0             # a cell's summed weight is capped here, so old views fade
     # ours 10 (Cartographer 4): with the LDS-01's range noise, normals from two neighbours a
-    # side tilt by degrees near the robot, and the projected distances with them: without loop
-    # closure the loop world's heading error was +0.87 deg on average (P 0.55); five a side
-    # hold it to +0.05 deg (P 0.92)
+    # side tilt by degrees near the robot
     num_normal_samples: int = 10             # normal_estimation_options.num_normal_samples
     sample_radius: float = 0.5               # normal_estimation_options.sample_radius, m: farther
                                              # neighbours end the sample window
-    project_sdf_distance_to_scan_normal: bool = True   # distance along the normal (false: along the ray)
     # Gaussian kernels on an update's weight: of the angle between normal and ray, and of the
     # signed distance of the cell from the hit
     update_weight_angle_scan_normal_to_ray_kernel_bandwidth: float = 0.5   # rad; 0 = off
@@ -101,32 +96,26 @@ class TsdfInserterConfig:
 class SubmapsConfig:
     """TRAJECTORY_BUILDER_2D.submaps: TSDF or probability-grid submaps, two active at a time."""
 
-    num_range_data: int = 90
+    num_range_data: int = 90                 # scans a submap takes before the next one starts
     resolution: float = 0.05                 # grid_options_2d.resolution, m
     # grid_options_2d.grid_type: "tsdf" (ours as default; Cartographer's TSDF option) or
-    # "probability_grid" (Cartographer's default). The probability grid puts a wall at the
-    # centres of its hit cells, up to half a cell off, and its matches carry that bias: with the
-    # submap built at the true poses, a scan matched from its true pose lands 10-14 mm behind
-    # it and 0.1-0.3 deg off (realistic noise, seed 0, bench_scripts/matcher_bias.py)
+    # "probability_grid" (Cartographer's default, which puts a wall at the centres of its hit
+    # cells, up to half a cell off, and its matches carry that bias)
     grid_type: str = "tsdf"
     tsdf: TsdfInserterConfig = field(default_factory=TsdfInserterConfig)
     # probability_grid only:
-    hit_probability: float = 0.55            # range_data_inserter.probability_grid_inserter_options_2d
-    miss_probability: float = 0.49
-    insert_free_space: bool = True
-    hit_near_range: float = 0.0              # ours: > 0 scales the hit odds by min(1, (this / range)^2)
+    hit_probability: float = 0.55            # probability_grid: odds of a hit cell (probability_grid_inserter_options_2d)
+    miss_probability: float = 0.49           # probability_grid: odds of a freed cell
     min_probability: float = 0.1             # Cartographer's kMinProbability / kMaxProbability clamp
-    max_probability: float = 0.9
+    max_probability: float = 0.9             # probability_grid: clamp above
     # ours: a hit ray frees space only up to this many range sigmas short of the hit (0 = up to
-    # the hit cell, as Cartographer); the band is marked observed, not free. With the LDS-01's
-    # range noise, free-space updates from the short beams erode a wall's front and leave its
-    # mapped surface behind the true one, more so where it was seen from far: submaps bend,
-    # and scans matched into them drift in heading
+    # the hit cell, as Cartographer); the band is marked observed, not free, so short beams do
+    # not erode a wall's front
     free_space_margin_sigmas: float = 1.5
     # the lidar's range noise, 1 sigma = max(range_sigma_min, range_sigma_ratio * range): the
     # LDS-01 datasheet's +-15 mm below 0.5 m and +-5 % beyond, read as 2-sigma bounds
-    range_sigma_min: float = 0.0075          # m
-    range_sigma_ratio: float = 0.025
+    range_sigma_min: float = 0.0075          # m, the noise below 0.3 m
+    range_sigma_ratio: float = 0.025         # of the range, the noise beyond
 
     def __post_init__(self):
         _positive(self, "num_range_data", "resolution")
@@ -147,19 +136,14 @@ class LocalConfig:
     min_range: float = 0.12                  # TB3
     max_range: float = 3.5                   # TB3
     missing_data_ray_length: float = 3.0     # TB3; no-return beams free space up to this range
-    voxel_filter_size: float = 0.025
-    # ours, a switch: Cartographer's voxel filters keep a random point of each voxel
-    # (RandomizedVoxelFilter); false keeps the first, which favours the first beams of the
-    # sweep and turns every matched scan slightly (corridor: +0.15 -> +0.08 deg, matcher_bias.py)
+    voxel_filter_size: float = 0.025         # m, one point per voxel before insertion
+    # Cartographer's voxel filters keep a random point of each voxel (RandomizedVoxelFilter);
+    # false keeps the first, which favours the first beams of the sweep
     randomized_voxel_filter: bool = True
     use_imu_data: bool = True                # TB3: yaw rate from the gyro in the extrapolator
-    use_odometry: bool = True                # cartographer_ros options.use_odometry (TB3: false
-                                             # with the LDS only; the simulated robot has wheels)
     use_online_correlative_scan_matching: bool = False  # Cartographer default (TB3: true; its
                                              # 1-cell / 0.8 deg lattice then anchors the rotation)
     deskew: bool = True                      # ours: undo motion during the 0.2 s revolution
-    ignore_unknown_points: bool = True       # ours: points landing in never-observed cells get no
-                                             # weight (else the edge of the known map pulls them back)
     match_near_range: float = 1.0            # ours: > 0 weights each point in the least squares by
                                              # min(1, (match_near_range / range)^2); 0 = uniform
     motion_filter: MotionFilterConfig = field(default_factory=MotionFilterConfig)
@@ -167,7 +151,7 @@ class LocalConfig:
     real_time_correlative_scan_matcher: RealTimeCorrelativeConfig = field(
         default_factory=RealTimeCorrelativeConfig)
     # ours: translation_weight 100 instead of 10: along a corridor the grid pins nothing and the
-    # least squares drifted back by ~1 % of the distance driven; the odometry prediction does better
+    # odometry's prediction is the better guide
     ceres_scan_matcher: CeresScanMatcherConfig = field(
         default_factory=lambda: CeresScanMatcherConfig(translation_weight=100.0))
     submaps: SubmapsConfig = field(default_factory=SubmapsConfig)
@@ -180,21 +164,21 @@ class LocalConfig:
 class FastCorrelativeConfig:
     """POSE_GRAPH.constraint_builder.fast_correlative_scan_matcher (branch and bound)."""
 
-    linear_search_window: float = 1.0        # ours (Cartographer 7 m): drift in these worlds stays
-                                             # well below 1 m, and 7 m finds the ring's other sides
+    linear_search_window: float = 1.0        # ours (Cartographer 7 m): room-sized worlds, where 7 m
+                                             # reaches the other sides of a ring corridor
     angular_search_window: float = math.radians(30.0)
-    branch_and_bound_depth: int = 7
+    branch_and_bound_depth: int = 7          # precomputation grids: the coarsest covers 2^6 cells
 
 
 @dataclass(frozen=True)
 class ConstraintBuilderConfig:
     """POSE_GRAPH.constraint_builder: loop-closure search between nodes and finished submaps."""
 
-    sampling_ratio: float = 0.3
-    max_constraint_distance: float = 15.0
+    sampling_ratio: float = 0.3              # share of (node, submap) pairs searched
+    max_constraint_distance: float = 15.0    # m; farther pairs are not searched
     min_score: float = 0.65                  # TB3 (Cartographer default 0.55)
-    loop_closure_translation_weight: float = 1.1e4
-    loop_closure_rotation_weight: float = 1e5
+    loop_closure_translation_weight: float = 1.1e4   # weight of a loop closure per m
+    loop_closure_rotation_weight: float = 1e5        # ... per rad
     min_information_ratio: float = 0.1       # ours: reject matches this degenerate (0 = off)
     ambiguity_radius: float = 0.3            # ours: reject a match when a pose this far (m) from it
     ambiguity_margin: float = 0.02           # scores within this margin of the best (0 radius = off)
@@ -203,7 +187,7 @@ class ConstraintBuilderConfig:
     # along the beam: the scan would see through a surface. This is the far face of a thin wall,
     # mapped from its other side, that a hit-only score cannot tell from the near face (0 = off)
     max_see_through_ratio: float = 0.05
-    see_through_free_probability: float = 0.3
+    see_through_free_probability: float = 0.3   # a cell below this probability is known free
     fast_correlative_scan_matcher: FastCorrelativeConfig = field(default_factory=FastCorrelativeConfig)
     ceres_scan_matcher: CeresScanMatcherConfig = field(default_factory=lambda: CeresScanMatcherConfig(
         occupied_space_weight=20.0, translation_weight=10.0, rotation_weight=1.0, max_num_iterations=10))
@@ -220,33 +204,15 @@ class ConstraintBuilderConfig:
 
 @dataclass(frozen=True)
 class OptimizationConfig:
-    """POSE_GRAPH.optimization_problem: sparse pose adjustment."""
+    """POSE_GRAPH.optimization_problem: sparse pose adjustment. Cartographer's odometry
+    constraints are not built: the wheel odometry only predicts (see LocalConfig)."""
 
-    # Ours 1 (Cartographer 1e1). On probability-grid submaps the closures were biased by 1-3 cm
-    # and 0.3-0.5 deg and only 0.1 kept them from bending the trajectory; on TSDF submaps they
-    # are precise enough to act. On the seed-0 logs 0.1 and 1 score within 0.01 of each other;
-    # on seed 1 (seen when choosing) 1 closes the loop world (P 0.78 -> 0.99), and on seed 2
-    # (checked after) it is better on every world with loops (loop 0.74 -> 0.83, rectangle_l
-    # 0.66 -> 0.76). 10 scores lower on corridor, loop and the swirls on seeds 0 and 1.
-    huber_scale: float = 1.0
-    # At 1e5 the chain of consecutive nodes is so stiff that Huber-capped loop closures hardly
-    # move it; 1e3 lets them act, but the imprecise closures on these blurred (LDS-01) submaps
-    # then cost more than they gain (swirl_s P 0.995 -> 0.88), so Cartographer's value stays.
-    local_slam_pose_translation_weight: float = 1e5
-    local_slam_pose_rotation_weight: float = 1e5
-    # Weights of the wheel odometry between consecutive nodes (Cartographer 1e5 / 1e5; its pose
-    # graph gets odometry whenever cartographer_ros' use_odometry is on, which the TurtleBot3
-    # configuration turns off). Ours 0 = no odometry constraint: the odometry drifts by a few
-    # per cent and at 1e5 beside the local-SLAM chain it outweighs the loop closures (seed-0
-    # loop world P/S 0.945/1.000 -> 0.389/0.510, rectangle_l 0.922/0.921 -> 0.535/0.639; the
-    # CSAIL hold-out 0.773 -> 1.484 m). Here, unlike Cartographer, the odometry only predicts.
-    odometry_translation_weight: float = 0.0
-    odometry_rotation_weight: float = 0.0
+    huber_scale: float = 1.0                 # ours (Cartographer 10): TSDF submaps' closures are precise
+    local_slam_pose_translation_weight: float = 1e5   # consecutive nodes' local-SLAM motion, per m
+    local_slam_pose_rotation_weight: float = 1e5      # ... per rad
     max_num_iterations: int = 50             # ceres_solver_options.max_num_iterations
     max_loop_residual: float = 0.25          # ours: loop closures off by more (m) after optimizing
                                              # are dropped and the problem solved again (0 = keep all)
-    solver: str = "lm"                       # ours: "lm" sparse Levenberg-Marquardt on the normal
-                                             # equations (Ceres' SPARSE_NORMAL_CHOLESKY), "trf" scipy
 
 
 @dataclass(frozen=True)
@@ -254,9 +220,9 @@ class GlobalConfig:
     """POSE_GRAPH: loop closure and optimization."""
 
     enable_loop_closure: bool = True         # ours: false = no constraint search (local SLAM + SPA)
-    optimize_every_n_nodes: int = 90
-    matcher_translation_weight: float = 5e2  # weights of the intra-submap (local) constraints
-    matcher_rotation_weight: float = 1.6e3
+    optimize_every_n_nodes: int = 90         # nodes between optimizations (0 = only at the end)
+    matcher_translation_weight: float = 5e2  # intra-submap (local) constraints, per m
+    matcher_rotation_weight: float = 1.6e3   # ... per rad
     constraint_builder: ConstraintBuilderConfig = field(default_factory=ConstraintBuilderConfig)
     optimization_problem: OptimizationConfig = field(default_factory=OptimizationConfig)
 
@@ -267,21 +233,4 @@ class GraphConfig:
 
     trajectory_builder: LocalConfig = field(default_factory=LocalConfig)
     pose_graph: GlobalConfig = field(default_factory=GlobalConfig)
-    map_resolution: float = 0.05             # ours: resolution of the final composed map, m
-    final_map: str = "sharpened"             # ours: "probability" (submap odds), "sharpened"
-                                             # (see slam/graph/final_map.py) or "mapper" (every
-                                             # scan at its optimized pose into `output_map`, the
-                                             # shared output map of oracle and gn)
-    output_map: MapperConfig = field(default_factory=MapperConfig)  # ours: used by final_map "mapper"
-    map_near_range: float = 0.5              # ours, sharpened: rays up to this range weigh 1
-    map_suppress_ratio: float = 0.4          # ours, sharpened: 3x3 non-maximum suppression ratio
-    map_max_range: float = 2.0               # ours: hits farther than this (m) from the lidar are
-                                             # left out of the final map (0 = all): the LDS-01's
-                                             # error grows with range (5 % beyond 0.5 m); 2 m as
-                                             # the shared output map (slam.mapper) the oracle uses
-
-    def __post_init__(self):
-        if self.final_map not in ("probability", "sharpened", "mapper"):
-            raise ValueError(f"final_map must be 'probability', 'sharpened' or 'mapper', "
-                             f"got {self.final_map!r}")
-        _positive(self, "map_resolution", "map_near_range")
+    output_map: OutputMapConfig = field(default_factory=OutputMapConfig)

@@ -1,12 +1,12 @@
 """Point filters of Cartographer's local SLAM: voxel filter and adaptive voxel filter.
 
-voxel_filter / adaptive_voxel_filter run the compiled kernels of slam._kernels.voxel; the
+voxel_filter / adaptive_voxel_filter run the compiled kernels of slam.graph._voxel_kernel; the
 `_ref` functions are the plain-numpy statements the tests compare them with."""
 from __future__ import annotations
 
 import numpy as np
 
-from slam._kernels.voxel import MINSTD_A, MINSTD_M, adaptive_voxel_filter_kernel, voxel_filter_kernel
+from slam.graph._voxel_kernel import MINSTD_A, MINSTD_M, adaptive_voxel_filter_kernel, voxel_filter_kernel
 
 __all__ = ["voxel_filter", "adaptive_voxel_filter", "voxel_filter_ref", "adaptive_voxel_filter_ref"]
 

@@ -75,14 +75,14 @@ class LocalSlam:
         self.t: float | None = None
         self.prev_t: float | None = None
         self.pre = PreprocessConfig(range_min=cfg.min_range, range_max=cfg.max_range, deskew=cfg.deskew,
-                                    free_range=cfg.missing_data_ray_length if cfg.submaps.insert_free_space else 0.0)
+                                    free_range=cfg.missing_data_ray_length)
 
     def _predict(self, scan: Scan, odom: OdomDelta | None, imu: ImuWindow | None) -> tuple[np.ndarray, np.ndarray]:
         """(predicted pose (3,) with unwrapped yaw near the last one, twist (3,) for de-skew)."""
         if self.t is None:
             return self.pose.copy(), np.zeros(3)
         dt = scan.t - self.t
-        if self.cfg.use_odometry and odom is not None:
+        if odom is not None:
             delta = odom.delta
         elif self.prev_t is not None and self.t > self.prev_t:
             # Constant velocity from the last two matched poses (Cartographer's extrapolator
@@ -110,10 +110,9 @@ class LocalSlam:
 
     def match_weights(self, submap, points: np.ndarray, pose: np.ndarray) -> np.ndarray:
         """(N,) least-squares weights of points (N, 2) placed at pose (3,) in `submap`."""
-        w = range_weights(points, self.cfg.match_near_range)
-        if self.cfg.ignore_unknown_points:
-            w = w * submap.known_at(transform_points(pose, points))
-        return w
+        # points in never-observed cells get no weight (ours): else the edge of the known map
+        # pulls them back
+        return range_weights(points, self.cfg.match_near_range) * submap.known_at(transform_points(pose, points))
 
     def add_scan(self, scan: Scan, odom: OdomDelta | None, imu: ImuWindow | None) -> LocalResult:
         """Match one scan and insert it if it passes the motion filter."""

@@ -19,7 +19,6 @@ nodes meet only their neighbours in time (a narrow band) and the few submaps (th
 such a system is solved by a banded Cholesky and the submaps' Schur complement instead
 (`solve_spd`: 2-3x faster than SuperLU on a swirl_l graph of 1900 nodes, the same solution
 to 1e-13).
-`solver="trf"` keeps scipy.optimize.least_squares (method 'trf', LSMR) for comparison.
 """
 from __future__ import annotations
 
@@ -28,10 +27,9 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 from scipy.linalg import LinAlgError, cho_factor, cho_solve
-from scipy.optimize import least_squares
 from scipy.sparse.linalg import splu
 
-from slam._kernels.band import band_cholesky_solve
+from slam.graph._band_kernel import band_cholesky_solve
 from slam.pose import relative, wrap_angle
 
 __all__ = ["Constraints", "spa_residuals", "optimize_poses", "solve_spd"]
@@ -60,15 +58,6 @@ class Constraints:
             arr = np.asarray(getattr(self, name))
             if arr.shape != shape:
                 raise ValueError(f"Constraints.{name}: expected shape {shape}, got {arr.shape}")
-
-    @staticmethod
-    def concat(parts: list["Constraints"]) -> "Constraints":
-        """One Constraints from several (empty list -> no constraint)."""
-        if not parts:
-            return Constraints(np.zeros(0, int), np.zeros(0, int), np.zeros((0, 3)), np.zeros(0),
-                               np.zeros(0), np.zeros(0, bool))
-        return Constraints(*(np.concatenate([getattr(p, f) for p in parts])
-                             for f in ("i", "j", "z", "w_t", "w_r", "robust")))
 
 
 def spa_residuals(poses: np.ndarray, c: Constraints) -> np.ndarray:
@@ -122,16 +111,15 @@ def _jacobian(poses: np.ndarray, c: Constraints, free_col: np.ndarray, n_free: i
 
 def optimize_poses(poses: np.ndarray, c: Constraints, fixed: np.ndarray | None = None,
                    huber_scale: float = 10.0, max_iterations: int = 50,
-                   tolerance: float | None = None, solver: str = "lm") -> np.ndarray:
+                   tolerance: float = 1e-5) -> np.ndarray:
     """Sparse pose adjustment: the poses that best satisfy the constraints.
 
     poses: (P, 3) initial global poses; c: constraints over indices into poses;
     fixed: (P,) bool, poses held constant (the gauge; default: pose 0); huber_scale: scale of
     the Huber loss on robust constraints (in weighted-residual units, Cartographer's
-    optimization_problem.huber_scale); solver: "lm" (sparse normal equations) or "trf"
-    (scipy least_squares); tolerance: stop when the cost falls by less than this fraction
-    (default: 1e-5 for "lm", ten times Ceres' function_tolerance: with the small Huber scale
-    the last iterations crawl and change the map by nothing; 1e-8 for "trf").
+    optimization_problem.huber_scale); tolerance: stop when the cost falls by less than this
+    fraction (ten times Ceres' function_tolerance: with the small Huber scale the last
+    iterations crawl and change the map by nothing).
     Returns (P, 3) optimized poses (yaw wrapped).
     """
     poses = np.asarray(poses, dtype=np.float64).copy()
@@ -161,38 +149,8 @@ def optimize_poses(poses: np.ndarray, c: Constraints, fixed: np.ndarray | None =
     def jac(x):
         return _jacobian(current(x), c, free_col, len(free_idx))
 
-    if tolerance is None:
-        tolerance = 1e-5 if solver == "lm" else 1e-8
-    if solver == "lm":
-        x = _sparse_lm(fun, jac, x0, robust_rows, huber_scale, max_iterations, tolerance)
-        out = current(x)
-        out[:, 2] = wrap_angle(out[:, 2])
-        return out
-    if solver != "trf":
-        raise ValueError(f"optimize_poses: unknown solver {solver!r} (lm, trf)")
-
-    def loss(z):
-        # Huber on the robust rows only (scipy passes z = f^2 per residual component).
-        rho = np.empty((3, len(z)))
-        rho[0] = z
-        rho[1] = 1.0
-        rho[2] = 0.0
-        zr = z[robust_rows]
-        d2 = huber_scale ** 2
-        big = zr > d2
-        sq = np.sqrt(np.maximum(zr, 1e-300))
-        r0 = np.where(big, 2.0 * huber_scale * sq - d2, zr)
-        r1 = np.where(big, huber_scale / sq, 1.0)
-        r2 = np.where(big, -0.5 * huber_scale / (sq * np.maximum(zr, 1e-300)), 0.0)
-        rho[0, robust_rows] = r0
-        rho[1, robust_rows] = r1
-        rho[2, robust_rows] = r2
-        return rho
-
-    res = least_squares(fun, x0, jac=jac, method="trf", loss=loss if robust_rows.any() else "linear",
-                        x_scale=1.0, max_nfev=max_iterations, ftol=tolerance, xtol=tolerance,
-                        gtol=tolerance, tr_solver="lsmr")
-    out = current(res.x)
+    x = _sparse_lm(fun, jac, x0, robust_rows, huber_scale, max_iterations, tolerance)
+    out = current(x)
     out[:, 2] = wrap_angle(out[:, 2])
     return out
 

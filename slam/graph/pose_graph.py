@@ -2,8 +2,7 @@
 
 As Cartographer's PoseGraph2D: each node gets an intra-submap constraint to every submap it
 was inserted into (its local-SLAM pose in that submap, matcher weights); consecutive nodes are
-tied by their local-SLAM relative pose (local_slam_pose weights) and, where both have wheel
-odometry, by the odometry's relative pose (odometry weights); loop-closure constraints
+tied by their local-SLAM relative pose (local_slam_pose weights); loop-closure constraints
 come from the ConstraintBuilder (new node vs finished submaps, and a newly finished submap vs
 older nodes). Every optimize_every_n_nodes nodes, and at the end, all poses are optimized;
 the local-to-global correction is then the one of the newest submap.
@@ -35,7 +34,6 @@ class PoseGraph:
         self.node_points: list[np.ndarray] = []     # loop-closure filtered, robot frame
         self.node_origins: list[np.ndarray] = []    # lidar position, robot frame
         self.node_submaps: list[tuple] = []
-        self.node_odometry: list[np.ndarray | None] = []   # odometry-frame pose at the node
         self.loops: list[LoopConstraint] = []
         self.builder = ConstraintBuilder(cfg.constraint_builder)
         self.correction = np.zeros(3)               # local -> global
@@ -45,11 +43,9 @@ class PoseGraph:
         self._loops_at_opt = 0
 
     def add_node(self, local_pose: np.ndarray, hits: np.ndarray, inserted_into: tuple,
-                 created: tuple, finished: tuple, origin: np.ndarray | None = None,
-                 odometry: np.ndarray | None = None) -> int:
+                 created: tuple, finished: tuple, origin: np.ndarray | None = None) -> int:
         """Add a node (local pose (3,), hits (N, 2) robot frame seen from the lidar at origin (2,)
-        robot frame, default the robot's centre; odometry: (3,) wheel-odometry pose at the node
-        or None); search loops; maybe optimize."""
+        robot frame, default the robot's centre); search loops; maybe optimize."""
         for s in created:
             while len(self.submap_global) <= s:
                 self.submap_global.append(compose(self.correction, self.submaps[len(self.submap_global)].local_pose))
@@ -61,7 +57,6 @@ class PoseGraph:
                                                      self.randomized_voxel_filter))
         self.node_origins.append(np.zeros(2) if origin is None else np.asarray(origin, float)[:2].copy())
         self.node_submaps.append(tuple(inserted_into))
-        self.node_odometry.append(None if odometry is None else np.asarray(odometry, float).copy())
         if self.cfg.enable_loop_closure:
             for s in self.builder.matchers:
                 if s not in inserted_into:
@@ -73,10 +68,10 @@ class PoseGraph:
                         self._try(s, n)
         self._since_opt += 1
         if self.cfg.optimize_every_n_nodes > 0 and self._since_opt >= self.cfg.optimize_every_n_nodes:
-            if len(self.loops) != self._loops_at_opt or self._has_odometry_constraints():
+            if len(self.loops) != self._loops_at_opt:
                 self.optimize()
             else:
-                # No new loop closure and no odometry: the local constraints alone are already
+                # No new loop closure: the local constraints alone are already
                 # satisfied by the corrected local poses, so the optimum would not move (ours:
                 # saves the solve).
                 self._since_opt = 0
@@ -87,17 +82,6 @@ class PoseGraph:
                                  self.node_points[n], self.node_origins[n])
         if c is not None:
             self.loops.append(c)
-
-    def _odometry_pairs(self) -> np.ndarray:
-        """(K,) indices n of the consecutive node pairs (n, n + 1) that both have odometry."""
-        op = self.cfg.optimization_problem
-        if op.odometry_translation_weight <= 0 and op.odometry_rotation_weight <= 0:
-            return np.zeros(0, int)
-        have = np.array([o is not None for o in self.node_odometry], bool)
-        return np.nonzero(have[:-1] & have[1:])[0]
-
-    def _has_odometry_constraints(self) -> bool:
-        return len(self._odometry_pairs()) > 0
 
     def constraints(self) -> Constraints:
         """All constraints over the variables [submaps..., nodes...]."""
@@ -122,16 +106,7 @@ class PoseGraph:
                              np.full(n_ch, op.local_slam_pose_rotation_weight),
                              np.full(n_lc, cb.loop_closure_rotation_weight)])
         rob = np.concatenate([np.zeros(n_in + n_ch, bool), np.ones(n_lc, bool)])
-        parts = [Constraints(i, j, z, wt, wr, rob)]
-        pairs = self._odometry_pairs()
-        if len(pairs):
-            odo = np.array([self.node_odometry[n] for n in pairs])
-            odo_next = np.array([self.node_odometry[n + 1] for n in pairs])
-            k = len(pairs)
-            parts.append(Constraints(ns + pairs, ns + pairs + 1, relative(odo, odo_next).reshape(-1, 3),
-                                     np.full(k, op.odometry_translation_weight),
-                                     np.full(k, op.odometry_rotation_weight), np.zeros(k, bool)))
-        return Constraints.concat(parts)
+        return Constraints(i, j, z, wt, wr, rob)
 
     def optimize(self) -> None:
         """Sparse pose adjustment over all submaps and nodes; the first submap holds the gauge."""
@@ -145,7 +120,7 @@ class PoseGraph:
         op = self.cfg.optimization_problem
         for _ in range(2):
             out = optimize_poses(poses, self.constraints(), fixed, huber_scale=op.huber_scale,
-                                 max_iterations=op.max_num_iterations, solver=op.solver)
+                                 max_iterations=op.max_num_iterations)
             if op.max_loop_residual <= 0 or not self.loops:
                 break
             # Ours: a loop closure the optimum still disagrees with by more than max_loop_residual

@@ -16,8 +16,8 @@ import math
 
 import numpy as np
 
-from slam._kernels.correlative import bnb_search, discretize_rotations, max_grids, score_candidates
-from slam._kernels.graph_match import match_lm
+from slam.graph._correlative_kernel import bnb_search, discretize_rotations, max_grids, score_candidates
+from slam.graph._match_kernel import match_lm
 from slam.graph.config import CeresScanMatcherConfig, FastCorrelativeConfig, RealTimeCorrelativeConfig
 
 __all__ = ["range_weights", "angular_step", "discretize", "real_time_correlative_match", "ceres_match",

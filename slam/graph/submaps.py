@@ -17,8 +17,6 @@ from slam.graph.tsdf import TsdfSubmap
 
 __all__ = ["Submap", "ActiveSubmaps", "TsdfSubmap"]
 
-_BANDS = np.array([0.0, 1.0, 1.5, 2.0, 2.5, 3.0])
-
 
 class Submap:
     """One probability-grid submap in the local frame.
@@ -43,35 +41,17 @@ class Submap:
         """Insert one scan: origin (2,), hits (N, 2), misses (M, 2), all local frame m."""
         if self.finished:
             raise RuntimeError(f"submap {self.index} is finished")
-        pts = np.vstack([hits_xy, misses_xy]) if self.cfg.insert_free_space else hits_xy
+        pts = np.vstack([hits_xy, misses_xy])
         mask = np.zeros(len(pts), bool)
         mask[:len(hits_xy)] = True
-        margin = self._free_margin(origin_xy, pts, mask)
-        near = self.cfg.hit_near_range
-        if near <= 0:
-            self.grid.insert_scan(origin_xy, pts, mask, free_margin=margin)
-        else:
-            # Ours: hit odds scaled by min(1, (near / range)^2), the inverse range variance of the
-            # LDS-01, in range bands (one insertion each), so far hits smear the walls less.
-            rng = np.hypot(pts[:, 0] - origin_xy[0], pts[:, 1] - origin_xy[1])
-            band = np.digitize(rng, _BANDS)
-            l_occ = self.grid.l_occ
-            try:
-                for b in np.unique(band):
-                    sel = band == b
-                    mid = 0.5 * (_BANDS[b - 1] + min(_BANDS[b] if b < len(_BANDS) else 4.0, 4.0))
-                    self.grid.l_occ = l_occ * min(1.0, (near / max(mid, 1e-6)) ** 2)
-                    self.grid.insert_scan(origin_xy, pts[sel], mask[sel],
-                                          free_margin=None if margin is None else margin[sel])
-            finally:
-                self.grid.l_occ = l_occ
+        self.grid.insert_scan(origin_xy, pts, mask, free_margin=self._free_margin(origin_xy, pts, mask))
         self.num_range_data += 1
 
     def _free_margin(self, origin_xy: np.ndarray, pts: np.ndarray, hit_mask: np.ndarray) -> np.ndarray | None:
         """(N,) m each ray stops freeing short of its end: free_space_margin_sigmas range sigmas
         for hits, 0 for no-return rays; None when the margin is off."""
         k = self.cfg.free_space_margin_sigmas
-        if k <= 0 or not self.cfg.insert_free_space:
+        if k <= 0:
             return None
         rng = np.hypot(pts[:, 0] - origin_xy[0], pts[:, 1] - origin_xy[1])
         sigma = np.maximum(self.cfg.range_sigma_min, self.cfg.range_sigma_ratio * rng)

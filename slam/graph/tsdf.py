@@ -5,7 +5,7 @@ nearest surface along the scans' normals (positive in front, +-truncation at mos
 summed weight. The surface is the zero crossing of the bilinearly interpolated field, so it
 lies between cell centres where the hits put it: a probability grid can only say which cells
 were hit, and puts a wall at the centres of its hit cells, up to half a cell from where it is.
-The kernels are in slam._kernels.tsdf.
+The kernels are in slam.graph._tsdf_kernel.
 
 The scan matchers read a TSDF submap through three grids of the same meta as a probability
 submap:
@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from slam._kernels.tsdf import scan_normals, tsdf_insert
+from slam.graph._tsdf_kernel import estimate_normals, tsdf_insert
 from slam.occupancy import GrowingGrid
 
 __all__ = ["TsdfGrid", "TsdfSubmap"]
@@ -47,14 +47,13 @@ class TsdfGrid(GrowingGrid):
             return 0
         order = np.argsort(np.arctan2(hits[:, 1] - origin[1], hits[:, 0] - origin[0]), kind="mergesort")
         hits = np.ascontiguousarray(hits[order])
-        normals = scan_normals(origin, hits, int(opts.num_normal_samples), float(opts.sample_radius))
+        normals = estimate_normals(origin, hits, int(opts.num_normal_samples), float(opts.sample_radius))
         allp = np.vstack([hits, origin[None, :]])
         self.ensure(allp.min(axis=0) - self.truncation, allp.max(axis=0) + self.truncation)
         n = tsdf_insert(self.tsd, self.weight, self.stamp, self.scans, self.meta, origin, hits, normals,
                         self.truncation, float(opts.maximum_weight),
                         float(opts.update_weight_angle_scan_normal_to_ray_kernel_bandwidth),
-                        float(opts.update_weight_distance_cell_to_hit_kernel_bandwidth),
-                        bool(opts.project_sdf_distance_to_scan_normal))
+                        float(opts.update_weight_distance_cell_to_hit_kernel_bandwidth))
         self.version += 1
         return int(n)
 

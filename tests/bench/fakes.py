@@ -12,7 +12,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from slam.base import register
+from slam.base import Slam
+from slam.registry import register
 from slam.pose import compose, transform_points
 from worlds.grid import Grid
 
@@ -25,12 +26,13 @@ class FakeConfig:
     delay_s: float = 0.0  # sleep in finish(): a slow run, for the kill-and-resume test
 
 
-class _Base:
+class _Base(Slam):
     config_class = FakeConfig
-    needs_ground_truth = True
+    uses_ground_truth = True
 
-    def __init__(self, cfg, start, rng):
-        self.cfg, self.rng = cfg, rng
+    def __init__(self, config, start, rng):
+        super().__init__(config, start, rng)
+        self.cfg = config
         self.t, self.poses, self.points = [], [], []
 
     def update(self, scan, odom, imu, truth=None):

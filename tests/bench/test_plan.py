@@ -67,17 +67,17 @@ def test_config_files_checked(tmp_path):
 
 def test_entry_point_plugins(monkeypatch):
     import importlib.metadata as md
-    from slam.base import ALGORITHMS
+    from slam import registry
     from bench.plan import load_plugins
     good = md.EntryPoint("plugin_algo", "tests.bench.plugin_algo:PluginAlgo", "slam_bench.algorithms")
-    monkeypatch.setattr(md, "entry_points", lambda group=None: [good])
-    monkeypatch.delitem(ALGORITHMS, "plugin_algo", raising=False)
+    monkeypatch.setattr(registry, "entry_points", lambda group=None: [good])
+    monkeypatch.delitem(registry._REGISTERED, "plugin_algo", raising=False)
     try:
         assert load_plugins() == ["plugin_algo"]
         assert "plugin_algo" in resolve_algos("plugin_algo,fake_map")
     finally:
-        ALGORITHMS.pop("plugin_algo", None)
+        registry._REGISTERED.pop("plugin_algo", None)
     bad = md.EntryPoint("broken", "tests.bench.no_such_module", "slam_bench.algorithms")
-    monkeypatch.setattr(md, "entry_points", lambda group=None: [bad])
+    monkeypatch.setattr(registry, "entry_points", lambda group=None: [bad])
     with pytest.raises(InputError, match="plugin 'broken'.*failed to load"):
         load_plugins()

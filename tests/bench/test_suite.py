@@ -53,7 +53,7 @@ def test_bench_run_suite_errors(tmp_path, tiny, capsys):
     assert main(["run", "--suite", "generall", "--out", str(tmp_path / "o")]) == 2
     assert "--suite generall: no such suite (shipped: general" in _err_line(capsys)
     assert main(["run", "--suite", "general", "--world", tiny, "--out", str(tmp_path / "o")]) == 2
-    assert "either --world or --suite" in _err_line(capsys)
+    assert "one of --world, --suite and --logs" in _err_line(capsys)
     bad = _suite(tmp_path, "worlds: [rectangle_s, nope]\n")
     assert main(["run", "--suite", str(bad), "--out", str(tmp_path / "o")]) == 2
     assert "mine.yaml: worlds[1]: no such world 'nope'" in _err_line(capsys)

@@ -5,7 +5,7 @@ import scipy.sparse as sp
 from scipy.linalg import LinAlgError
 from scipy.sparse.linalg import spsolve
 
-from slam._kernels.band import band_cholesky_solve, band_cholesky_solve_ref
+from slam.graph._band_kernel import band_cholesky_solve, band_cholesky_solve_ref
 from slam.graph.optimize import solve_spd
 
 

@@ -63,6 +63,6 @@ def test_config_with_unknown_key(short_log, tmp_path, capsys):
 def test_missing_log_and_bad_nested_value(short_log, tmp_path, capsys):
     _bad(["run", "--algo", "gn", "--log", str(tmp_path / "nope.npz"), "--out", str(tmp_path)], capsys, "not found")
     cfg = tmp_path / "gn.yaml"
-    cfg.write_text("preprocess: {angle_step: fast}\n")
+    cfg.write_text("preprocess: {smooth_beams: fast}\n")
     _bad(["run", "--algo", "gn", "--log", str(short_log / "room.npz"), "--out", str(tmp_path / "o"),
-          "--config", str(cfg)], capsys, "preprocess.angle_step")
+          "--config", str(cfg)], capsys, "preprocess.smooth_beams")

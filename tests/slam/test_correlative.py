@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from slam._kernels.correlative import (best_candidate_ref, bnb_search, discretize_rotations,
+from slam.graph._correlative_kernel import (best_candidate_ref, bnb_search, discretize_rotations,
                                        discretize_rotations_ref, max_grids, max_grids_ref,
                                        score_candidates, score_candidates_ref)
 

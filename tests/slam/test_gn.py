@@ -4,11 +4,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from slam.base import _iter_inputs, load_config, run_algorithm
-from slam.gn import GnConfig, _Level, match_scan
-from slam.occupancy import LogOddsGrid, logodds
-from slam.pose import transform_points, wrap_angle
-from slam.preprocess import PreprocessConfig, preprocess, twist_from_poses
+from slam.gn import GnConfig
+from slam.gn.levels import MapLevels
+from slam.gn.matching import match_scan
+from slam.registry import load_config
+from slam.replay import _iter_inputs, run_algorithm
+from slam.pose import wrap_angle
+from slam.preprocess import PreprocessConfig, ScanPoints, preprocess, twist_from_poses
 from worlds.yamlio import InputError
 
 from tests.slam.synthlog import box_room_segments, make_log, score, square_route, truth_grid
@@ -29,12 +31,11 @@ def _scans_with_motion(log):
 
 
 def _levels_from(log, every=8):
-    levels = [_Level(LogOddsGrid(r, (2, 2), logodds(0.4), logodds(0.9), -50, 50)) for r in (0.05, 0.1, 0.2)]
+    levels = MapLevels(GnConfig(map_type="log_odds", match_unknown=0.5), (2, 2))
     for scan, truth, twist in _scans_with_motion(log)[::every]:
         p = preprocess(scan, PreprocessConfig(), twist)
-        for lv in levels:
-            lv.grid.insert_scan(transform_points(truth, p.origin[None])[0], transform_points(truth, p.points))
-    return [lv.prob_meta() for lv in levels]
+        levels.insert(ScanPoints(p.points, np.zeros((0, 2)), p.origin), truth)
+    return levels.images()
 
 
 def test_matching_recovers_a_known_offset(room_log, rng):
@@ -89,9 +90,6 @@ def test_yaw_prior_changes_the_track_and_is_validated(room_log):
         load_config("gn", {"match_unknown": 1.5})
     with pytest.raises(InputError, match="map_type"):
         load_config("gn", {"map_type": "counts"})
-    with pytest.raises(InputError, match="far_range applies to map_type log_odds"):
-        load_config("gn", {"far_range": 2.0})
-    assert load_config("gn", {"map_type": "log_odds", "far_range": 2.0}).far_range == 2.0
 
 
 def test_config_documents_hector_defaults_and_rejects_unknown_keys():

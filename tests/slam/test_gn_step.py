@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from slam._kernels.gn_step import gn_normal_equations, gn_normal_equations_ref
+from slam._kernels.gauss_newton import gn_normal_equations, gn_normal_equations_ref
 
 
 def _unit_normals(rng, n):
@@ -60,7 +60,7 @@ def test_gradient_of_cost_matches_finite_differences(rng):
                                      ((30.0, -10.0, 0.0), (-10.0, 5.0, 0.0), (0.0, 0.0, 2.0))])
 @pytest.mark.parametrize("with_normals", [False, True])
 def test_iterate_matches_reference(seed, prior_w, with_normals):
-    from slam._kernels.gn_step import gn_iterate, gn_iterate_ref
+    from slam._kernels.gauss_newton import gn_iterate, gn_iterate_ref
     rng = np.random.default_rng(seed)
     # a smooth bump map so the steps stay well conditioned
     yy, xx = np.mgrid[0:40, 0:40]
@@ -85,7 +85,7 @@ def test_iterate_matches_reference(seed, prior_w, with_normals):
 def test_yaw_prior_holds_the_yaw_on_a_rotation_symmetric_map():
     """A round bump gives the scan no rotation: the yaw stays where the prior pulls it, and
     a strong prior overrides what the map would do to the yaw."""
-    from slam._kernels.gn_step import gn_iterate
+    from slam._kernels.gauss_newton import gn_iterate
     yy, xx = np.mgrid[0:40, 0:40]
     prob = np.exp(-((xx - 19.5) ** 2 + (yy - 19.5) ** 2) / 60.0)
     meta = np.array([0.0, 0.0, 0.1, 40, 40])
@@ -128,7 +128,7 @@ def test_a_straight_wall_read_along_its_normals_steps_where_a_prior_pins_the_res
     """One straight wall, read along its normals, constrains y only: with a prior on x the
     steps bring y back onto the wall and leave x at the prior; with no prior at all the
     system is singular and the pose stays where it started."""
-    from slam._kernels.gn_step import gn_iterate
+    from slam._kernels.gauss_newton import gn_iterate
     prob, meta, pts, nrm = _textured_wall()
     start = np.array([0.0, 0.03, 0.0])
     prior = np.zeros(3)

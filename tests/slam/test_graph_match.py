@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from slam._kernels.graph_match import match_lm, match_lm_ref
+from slam.graph._match_kernel import match_lm, match_lm_ref
 from slam.pose import transform_points
 
 

@@ -34,28 +34,6 @@ def test_kernel_matches_reference(seed):
     assert n >= int(np.sum(np.isnan(lo) & ~np.isnan(out)))
 
 
-@pytest.mark.kernel
-@pytest.mark.parametrize("seed", range(6))
-@pytest.mark.parametrize("snap", [1, 3])
-def test_kernel_matches_reference_with_snapping(seed, snap):
-    lo, meta, origin, ends, hit = _random_case(100 + seed)
-    ref = insert_rays_ref(lo, meta, origin, ends, hit, L_FREE, L_OCC, -4.0, 4.0, snap)
-    out = lo.copy()
-    insert_rays_inplace(out, meta, origin, ends, hit, L_FREE, L_OCC, -4.0, 4.0, snap)
-    np.testing.assert_array_equal(np.isnan(out), np.isnan(ref))
-    np.testing.assert_allclose(np.nan_to_num(out), np.nan_to_num(ref), atol=1e-12)
-
-
-def test_snapping_moves_a_hit_behind_a_surface_onto_it():
-    lo = np.full((3, 10), np.nan)
-    lo[0, 6] = 3.0  # a mapped surface just before the end cell
-    meta = np.array([0.0, 0.0, 1.0, 3, 10])
-    insert_rays_inplace(lo, meta, np.array([0.5, 0.5]), np.array([[7.5, 0.5]]), np.array([True]),
-                        -0.5, 2.0, -5.0, 5.0, 2)
-    assert lo[0, 6] == 5.0 and np.isnan(lo[0, 7])
-    np.testing.assert_allclose(lo[0, :6], -0.5)
-
-
 def test_reference_leaves_input_unchanged():
     lo, meta, origin, ends, hit = _random_case(0)
     before = lo.copy()
@@ -107,12 +85,11 @@ def test_kernel_matches_reference_with_free_margin(seed):
     lo, meta, origin, ends, hit = _random_case(200 + seed)
     rng = np.random.default_rng(seed)
     margin = rng.uniform(0.0, 6 * meta[2], len(ends)) * (rng.random(len(ends)) < 0.8)
-    for snap in (0, 2):
-        ref = insert_rays_ref(lo, meta, origin, ends, hit, L_FREE, L_OCC, -4.0, 4.0, snap, margin)
-        out = lo.copy()
-        insert_rays_inplace(out, meta, origin, ends, hit, L_FREE, L_OCC, -4.0, 4.0, snap, margin)
-        np.testing.assert_array_equal(np.isnan(out), np.isnan(ref))
-        np.testing.assert_allclose(np.nan_to_num(out), np.nan_to_num(ref), atol=1e-12)
+    ref = insert_rays_ref(lo, meta, origin, ends, hit, L_FREE, L_OCC, -4.0, 4.0, margin)
+    out = lo.copy()
+    insert_rays_inplace(out, meta, origin, ends, hit, L_FREE, L_OCC, -4.0, 4.0, margin)
+    np.testing.assert_array_equal(np.isnan(out), np.isnan(ref))
+    np.testing.assert_allclose(np.nan_to_num(out), np.nan_to_num(ref), atol=1e-12)
 
 
 @pytest.mark.kernel
@@ -120,7 +97,7 @@ def test_zero_margin_is_the_plain_update():
     lo, meta, origin, ends, hit = _random_case(7)
     plain, banded = lo.copy(), lo.copy()
     insert_rays_inplace(plain, meta, origin, ends, hit, L_FREE, L_OCC, -4.0, 4.0)
-    insert_rays_inplace(banded, meta, origin, ends, hit, L_FREE, L_OCC, -4.0, 4.0, 0, np.zeros(len(ends)))
+    insert_rays_inplace(banded, meta, origin, ends, hit, L_FREE, L_OCC, -4.0, 4.0, np.zeros(len(ends)))
     np.testing.assert_array_equal(np.isnan(plain), np.isnan(banded))
     np.testing.assert_array_equal(np.nan_to_num(plain), np.nan_to_num(banded))
 
@@ -131,7 +108,7 @@ def test_free_margin_leaves_the_noise_band_observed_but_unchanged():
     meta = np.array([0.0, 0.0, 1.0, 3, 12])
     # hit at x = 10.5 (cell 10); the margin of 3.8 cells puts the last free point at x = 6.7
     insert_rays_inplace(lo, meta, np.array([0.5, 0.5]), np.array([[10.5, 0.5]]), np.array([True]),
-                        -0.5, 2.0, -5.0, 5.0, 0, np.array([3.8]))
+                        -0.5, 2.0, -5.0, 5.0, np.array([3.8]))
     np.testing.assert_allclose(lo[0, :7], -0.5)        # cells 0-6 freed
     np.testing.assert_allclose(lo[0, 7:10], [0.0, 1.0, 0.0])  # band: observed, not freed
     assert lo[0, 10] == 2.0 and np.isnan(lo[0, 11])
@@ -144,6 +121,6 @@ def test_a_band_cell_another_ray_passes_through_is_freed():
         lo = np.full((3, 12), np.nan)
         # the first ray's band (cells 8-9) lies on the free part of the second, longer ray
         insert_rays_inplace(lo, meta, np.array([0.5, 0.5]), ends[order], np.array([True, True]),
-                            -0.5, 2.0, -5.0, 5.0, 0, np.array([3.2, 0.0])[order])
+                            -0.5, 2.0, -5.0, 5.0, np.array([3.2, 0.0])[order])
         np.testing.assert_allclose(lo[0, :10], -0.5)
         assert lo[0, 10] == 2.0 and lo[0, 11] == 2.0

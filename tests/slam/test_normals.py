@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from slam._kernels.normals import normal_information, scan_normals, scan_normals_ref
+from slam.gn._normals_kernel import normal_information, scan_normals, scan_normals_ref
 
 
 def _ring_scan(rng, n=300):

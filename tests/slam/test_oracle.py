@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 
 from sim.log import SensorLog
-from slam.base import run_algorithm
+from slam.replay import run_algorithm
 from worlds.yamlio import InputError
 
 from tests.slam.synthlog import box_room_segments, make_log, score, square_route, truth_grid
@@ -32,7 +32,7 @@ def test_noisier_ranges_still_give_thin_walls():
     p, s = score(run_algorithm("oracle", log).grid, truth_grid(segs))
     # (the synthetic robot's instant turn/drive switches leave a few smeared scans)
     assert p > 0.85 and s > 0.95, (p, s)
-    hector = {"map": {"grid": {"p_free": 0.4, "p_occupied": 0.9}, "preprocess": {}}}
+    hector = {"output_map": {"grid": {"p_free": 0.4, "p_occupied": 0.9}, "preprocess": {}}}
     p_h, _ = score(run_algorithm("oracle", log, config=hector).grid, truth_grid(segs))
     assert p_h < p  # hector's update values thicken the walls under this noise
 

@@ -3,9 +3,9 @@ import numpy as np
 import pytest
 
 from sim.log import SensorLog
-from slam.base import ALGORITHMS, run_algorithm
+from slam import registry
+from slam.replay import run_algorithm
 from slam.pf import ParticleFilterSlam, PfConfig
-from slam.pf_render import render_surface
 from slam.pose import compose, interpolate_poses, relative
 from worlds.yamlio import InputError
 from tests.slam.synthlog import box_room_segments, make_log, square_route
@@ -38,9 +38,7 @@ def _rmse(times, poses, log):
 
 
 def test_registered_with_gmapping_defaults():
-    run_algorithm  # noqa: B018
-    import slam.algorithms  # noqa: F401
-    assert ALGORITHMS["pf"] is ParticleFilterSlam
+    assert registry.get("pf") is ParticleFilterSlam
     c = PfConfig()
     assert (c.particles, c.resample_threshold, c.delta) == (30, 0.5, 0.05)
     assert (c.motion.srr, c.motion.srt, c.motion.str, c.motion.stt) == (0.1, 0.2, 0.1, 0.2)
@@ -93,38 +91,9 @@ def test_filter_beats_biased_odometry(room_log):
     assert pf_err < 0.06
 
 
-def test_output_map_rendered_from_its_own_smoothing_without_changing_the_filter(room_log):
-    log = _head(room_log, 60)
-    as_matched = run_algorithm("pf", log, config={**SMALL, "render_smooth_beams": -1}, seed=1)
-    raw = run_algorithm("pf", log, config={**SMALL, "render_smooth_beams": 0}, seed=1)
-    np.testing.assert_array_equal(as_matched.poses, raw.poses)
-    assert not (as_matched.grid.shape == raw.grid.shape
-                and np.array_equal(as_matched.grid.prob, raw.grid.prob, equal_nan=True))
-
-
 def test_stock_gmapping_config_switches_the_additions_off():
     from pathlib import Path
-    from slam.base import load_config
+    from slam.registry import load_config
     stock = load_config("pf", Path(__file__).parents[2] / "slam" / "configs" / "pf_gmapping.yaml")
-    assert (stock.smooth_beams, stock.render_smooth_beams, stock.matcher.gn_iterations) == (0, 0, 0)
+    assert (stock.smooth_beams, stock.matcher.gn_iterations) == (0, 0)
     assert PfConfig().matcher.gn_iterations > 0
-
-
-def test_surface_rendering_keeps_one_face_of_a_noisy_wall():
-    rng = np.random.default_rng(0)
-    rows, cols = 20, 40
-    hits = np.zeros((rows, cols))
-    visits = np.zeros((rows, cols))
-    sx = np.zeros((rows, cols))
-    sy = np.zeros((rows, cols))
-    visits[:10] = 50          # free space in front of a wall whose face lies at row 10.5
-    for c in range(2, 38):
-        for y in rng.normal(10.5, 0.8, 60):
-            r = int(np.floor(y))
-            hits[r, c] += 1
-            visits[r, c] += 1
-            sx[r, c] += c + 0.5
-            sy[r, c] += y
-    prob = render_surface(hits, visits, sx, sy, 0.25, 2, np.array([[2, 20]]))
-    occ_rows = np.nonzero(np.nan_to_num(prob, nan=0.0) == 1.0)[0]
-    assert len(occ_rows) >= 30 and np.all(occ_rows == 10)

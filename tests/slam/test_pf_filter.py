@@ -1,8 +1,8 @@
-"""slam.pf_filter: Gmapping's motion model, weight normalisation, Neff, low-variance resampling."""
+"""slam.pf.motion: Gmapping's motion model, weight normalisation, Neff, low-variance resampling."""
 import numpy as np
 import pytest
 
-from slam.pf_filter import (effective_sample_size, motion_std, normalized_weights,
+from slam.pf.motion import (effective_sample_size, motion_std, normalized_weights,
                             sample_motion, systematic_resample)
 from slam.pose import compose
 

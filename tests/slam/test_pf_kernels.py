@@ -1,13 +1,13 @@
-"""slam._kernels.pf_map / pf_match against their plain references, and the tile sharing."""
+"""slam.pf._map_kernel / pf_match against their plain references, and the tile sharing."""
 import numpy as np
 import pytest
 
-from slam._kernels.pf_map import insert_scan_ref, ray_cells, ray_cells_ref
-from slam._kernels.pf_match import (beam_cache, extract_patches, grid_likelihoods, hill_climb,
+from slam.pf._map_kernel import insert_scan_ref, ray_cells, ray_cells_ref
+from slam.pf._match_kernel import (beam_cache, extract_patches, grid_likelihoods, hill_climb,
                                     hill_climb_ref, make_params, proposal_moments,
                                     proposal_moments_ref, score_above, score_and_likelihood,
                                     score_and_likelihood_ref)
-from slam.pf_maps import TiledMaps
+from slam.pf.maps import TiledMaps
 
 PARAMS = make_params(sigma=0.05, lsigma=0.075, null_likelihood=-0.5, fullness=0.3, kernel=1,
                      lstep=0.05, astep=0.05, iterations=5, llsamplerange=0.01,

@@ -1,14 +1,12 @@
-"""slam._kernels.pf_refine: the reflectance patch against its reference; slam.pf.refine_pose,
-the Gauss-Newton refinement, recovering known offsets on a particle's map."""
+"""slam.pf._refine_kernel against its references; slam.pf.proposal.refine_pose, the
+Gauss-Newton refinement, recovering known offsets on a particle's map."""
 import numpy as np
 import pytest
 
-from slam._kernels.pf_map import insert_scan_ref
-from slam._kernels.pf_refine import (mean_hit_normal_equations, mean_hit_normal_equations_ref,
-                                    mean_hit_patch, mean_hit_patch_ref, reflectance_patch,
-                                    reflectance_patch_ref)
-from slam.pf import refine_pose
-from slam.pf_maps import TiledMaps
+from slam.pf._refine_kernel import (mean_hit_normal_equations, mean_hit_normal_equations_ref,
+                                    mean_hit_patch, mean_hit_patch_ref)
+from slam.pf.proposal import refine_pose
+from slam.pf.maps import TiledMaps
 from tests.slam.test_pf_kernels import ORIGIN
 
 
@@ -25,32 +23,6 @@ def _box_scan(rng, pose, beams=360, half=(1.6, 1.1), sigma=0.005):
         ty = np.where(ws > 0, (hy - ly) / ws, (-hy - ly) / ws)
     r = np.minimum(np.abs(tx), np.abs(ty)) + rng.normal(0, sigma, beams)
     return np.stack([r * np.cos(a), r * np.sin(a)], axis=1) + ORIGIN
-
-
-@pytest.mark.kernel
-@pytest.mark.parametrize("seed", range(3))
-@pytest.mark.parametrize("factor", [1, 2, 4])
-def test_reflectance_patch_matches_dense_reference(seed, factor):
-    rng = np.random.default_rng(seed)
-    maps = TiledMaps(1, np.zeros(2), 2.0, 0.05, tile=8)
-    dense = np.zeros((maps.tables.shape[1] * 8,) * 2 + (4,))
-    for _ in range(3):
-        pose = np.r_[rng.uniform(-0.3, 0.3, 2), rng.uniform(-np.pi, np.pi)]
-        ends = _box_scan(rng, pose, beams=90)
-        hit = rng.random(len(ends)) > 0.1
-        maps.insert(pose[None, :], ORIGIN, ends, hit)
-        insert_scan_ref(dense, maps.grid_meta, pose, ORIGIN, ends, hit)
-    rows = int(maps.grid_meta[3])
-    # boxes inside, across the edge and beyond the grid, with sizes not multiples of factor
-    for box in ([10, 12, 41, 37], [-5, rows - 30, 47, 45], [rows + 2, 0, 5, 5]):
-        box = np.array(box, dtype=np.int64)
-        got = reflectance_patch(maps.tables[0], maps.pool, maps.grid_meta, box, factor)
-        ref = reflectance_patch_ref(maps.dense(0), box, factor)
-        assert got.shape == ref.shape
-        np.testing.assert_allclose(got, ref, atol=1e-6)
-        # the tiles hold what the dense reference inserted
-        ref_dense = reflectance_patch_ref(dense, box, factor)
-        assert np.mean(np.abs(got - ref_dense) > 1e-6) < 0.01
 
 
 def test_refinement_recovers_offsets_from_a_map_of_noisy_scans():
@@ -70,8 +42,7 @@ def test_refinement_recovers_offsets_from_a_map_of_noisy_scans():
         truth = np.r_[rng.uniform(-0.4, 0.4), rng.uniform(-0.3, 0.3), rng.uniform(-np.pi, np.pi)]
         pts = _box_scan(rng, truth, sigma=0.01)
         start = truth + np.r_[rng.uniform(-0.04, 0.04, 2), np.radians(rng.uniform(-2, 2))]
-        est = refine_pose(maps.tables[0], maps.pool, maps.grid_meta, box, pts, start, 2, 10, 0.2,
-                        no_prior, no_prior)
+        est = refine_pose(maps, 0, box, pts, start, 10, 0.2, no_prior, no_prior)
         errors.append([np.hypot(*(est[:2] - truth[:2])), abs(est[2] - truth[2])])
     errors = np.array(errors)
     assert errors[:, 0].max() < 0.01
@@ -104,8 +75,7 @@ def test_prior_holds_the_unconstrained_direction():
     pts = corridor_scan(truth)
     start = truth + [0.0, -0.03, 0.01]
     prior_w = 3.0 / np.array([0.02, 0.02, 0.04]) ** 2
-    est = refine_pose(maps.tables[0], maps.pool, maps.grid_meta, box, pts, start, 1, 10, 0.2,
-                    truth, prior_w)
+    est = refine_pose(maps, 0, box, pts, start, 10, 0.2, truth, prior_w)
     assert abs(est[0] - truth[0]) < 0.005       # held by the prior
     assert abs(est[1] - truth[1]) < 0.01        # set by the walls
     assert abs(est[2] - truth[2]) < np.radians(0.3)
@@ -161,15 +131,12 @@ def test_mean_hit_reading_puts_the_wall_at_its_face_not_its_cell_centre():
     rows = int(maps.grid_meta[3])
     box = np.array([rows // 2 - 40, rows // 2 - 20, 80, 80], dtype=np.int64)
     no_prior = np.zeros(3)
-    err = {True: [], False: []}
+    err = []
     for _ in range(8):
         truth = np.array([rng.uniform(0.65, 0.85), rng.uniform(-0.1, 0.1), rng.uniform(-0.2, 0.2)])
         pts = scan(truth)
         start = truth + np.r_[rng.uniform(-0.02, 0.02, 2), 0.0]
-        for mean_hit in (False, True):
-            est = refine_pose(maps.tables[0], maps.pool, maps.grid_meta, box, pts, start, 1, 10,
-                              0.2, no_prior, no_prior, mean_hit=mean_hit)
-            err[mean_hit].append(est[0] - truth[0])
-    assert np.mean(err[False]) > 0.005                 # the centres' reading: towards the wall
-    assert np.abs(np.mean(err[True])) < 0.003
-    assert np.max(np.abs(err[True])) < 0.008
+        est = refine_pose(maps, 0, box, pts, start, 10, 0.2, no_prior, no_prior)
+        err.append(est[0] - truth[0])
+    assert np.abs(np.mean(err)) < 0.003
+    assert np.max(np.abs(err)) < 0.008

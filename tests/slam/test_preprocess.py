@@ -1,4 +1,4 @@
-"""Scan preprocessing: range limits, offset, decimation, voxel filter, de-skew."""
+"""Scan preprocessing: range limits, offset, smoothing, de-skew."""
 import numpy as np
 import pytest
 
@@ -30,21 +30,11 @@ def test_lidar_offset_applied():
     np.testing.assert_allclose(out.points, [[0.1, 1.2]], atol=1e-12)
 
 
-def test_angle_step_and_voxel():
-    s = _scan(np.full(8, 1.0))
-    assert len(preprocess(s, PreprocessConfig(angle_step=2)).points) == 4
-    dense = Scan(0.0, np.full(720, 1.0), np.linspace(0, 2 * np.pi, 720, endpoint=False), 0.1, 3.5, np.zeros(3))
-    vox = preprocess(dense, PreprocessConfig(voxel=0.1)).points
-    assert 40 < len(vox) < 100
-    keys = np.floor(vox / 0.1)
-    assert len(np.unique(keys, axis=0)) == len(vox)
-
-
 def test_config_rejects_bad_values():
     with pytest.raises(ValueError):
-        PreprocessConfig(angle_step=0)
+        PreprocessConfig(smooth_beams=-1)
     with pytest.raises(ValueError):
-        PreprocessConfig(voxel=-1.0)
+        PreprocessConfig(range_max=-1.0)
 
 
 def test_motion_during_is_the_se2_exponential():

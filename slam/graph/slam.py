@@ -1,0 +1,72 @@
+"""`graph`: the pose-graph SLAM of the Cartographer family (Hess, Kohler, Rapp, Andor: "Real-time
+loop closure in 2D LIDAR SLAM", ICRA 2016). The method step by step, with what differs from
+Cartographer: docs/algorithms/graph.md.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from worlds.grid import Grid
+from slam.base import ImuWindow, OdomDelta, Scan, Slam
+from slam.graph.config import GraphConfig
+from slam.graph.local import LocalSlam
+from slam.graph.pose_graph import PoseGraph
+from slam.output_map import output_map_from_trajectory
+from slam.pose import compose, relative
+
+__all__ = ["GraphSlam"]
+
+
+class GraphSlam(Slam):
+    """Local SLAM with submaps + branch-and-bound loop closure + sparse pose adjustment
+    (deterministic: the rng is not used)."""
+
+    config_class = GraphConfig
+
+    def __init__(self, config: GraphConfig, start: np.ndarray, rng: np.random.Generator):
+        super().__init__(config, start, rng)
+        self.local = LocalSlam(config.trajectory_builder, start)
+        self.graph = PoseGraph(config.pose_graph, self.local.submaps.all,
+                               config.trajectory_builder.randomized_voxel_filter)
+        self.scans: list[Scan] = []
+        self.scan_local: list[np.ndarray] = []
+        self.scan_node: list[int] = []
+
+    def update(self, scan: Scan, odom: OdomDelta | None, imu: ImuWindow | None) -> np.ndarray:
+        """1. local SLAM: match the scan into the active submaps (and insert it there if the
+        motion filter lets it through); 2. global SLAM: a scan that became a node is added to
+        the pose graph, which searches loop closures and optimizes every N nodes;
+        3. the pose is the local pose under the local-to-global correction."""
+        r = self.local.add_scan(scan, odom, imu)
+        if r.is_node:
+            self.graph.add_node(r.pose, r.hits, r.inserted_into, r.created, r.finished, r.origin)
+        self.scans.append(scan)
+        self.scan_local.append(r.pose)
+        self.scan_node.append(len(self.graph.node_local) - 1)
+        return compose(self.graph.correction, r.pose)
+
+    def finish(self) -> None:
+        """A last optimization of the whole graph."""
+        self.graph.optimize()
+
+    def trajectory(self) -> tuple[np.ndarray, np.ndarray]:
+        """Optimized node poses; scans between nodes placed by the local SLAM's motion since
+        the latest node."""
+        nl = np.array(self.graph.node_local)
+        ng = np.array(self.graph.node_global)
+        idx = np.array(self.scan_node)
+        poses = compose(ng[idx], relative(nl[idx], np.array(self.scan_local)))
+        return np.array([s.t for s in self.scans]), poses
+
+    def map(self) -> Grid:
+        """The output map of every scan at its optimized pose."""
+        times, poses = self.trajectory()
+        return output_map_from_trajectory(self.config.output_map, self.scans, times, poses)
+
+    def extra_stats(self) -> dict:
+        return {"nodes": len(self.graph.node_local), "submaps": len(self.graph.submap_global),
+                "loop_closures": len(self.graph.loops),
+                "loop_closure_attempts": self.graph.builder.attempts,
+                "loop_closures_rejected": self.graph.rejected,
+                "loop_closures_see_through": self.graph.builder.see_through,
+                "optimizations": self.graph.n_optimizations}
