@@ -55,6 +55,8 @@ def run(slam: Slam, log: SensorLog) -> SlamResult:
     finite = np.isfinite(log.scan_ranges) & (log.scan_ranges > 0)
     if not finite.any():
         raise InputError("log has no finite range reading in any scan (all beams inf or NaN)")
+    if slam.needs_odometry and not log.has_odometry:
+        raise InputError(f"algorithm '{slam.name}' needs wheel odometry, but the log has none")
     truth_fed = slam.uses_ground_truth
     if truth_fed and not log.has_ground_truth:
         raise InputError(f"algorithm '{slam.name}' maps with true poses, but the log has no ground truth")
@@ -90,8 +92,6 @@ def run(slam: Slam, log: SensorLog) -> SlamResult:
 def run_algorithm(name: str, log: SensorLog, config: Any = None, seed: int = 0) -> SlamResult:
     """Build algorithm `name` with `config` (None, mapping or YAML path) and seed, and run it on `log`."""
     cls = get_algorithm(name)
-    if cls.needs_odometry and not log.has_odometry:
-        raise InputError(f"algorithm '{name}' needs wheel odometry, but the log has none")
     cfg = load_config(name, config)
     slam = cls(cfg, log.start_pose.copy(), np.random.default_rng(seed))
     result = run(slam, log)

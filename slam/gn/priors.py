@@ -28,13 +28,13 @@ def surface_normals(cfg: GnConfig, points: np.ndarray) -> np.ndarray | None:
     return None
 
 
-def degenerate_direction(cfg: GnConfig, normals: np.ndarray | None, observed: np.ndarray,
+def degenerate_direction(cfg: GnConfig, normals: np.ndarray | None, observed: np.ndarray | None,
                          pose: np.ndarray) -> np.ndarray | None:
     """World-frame unit direction of translation the scan's normals do not constrain (the
     smaller eigenvector of their mean outer product, if its eigenvalue is below
-    degeneracy_threshold), else None. observed: (N,) bool, the points lie on mapped ground;
-    the others count as points without a normal (a wall coming into view is not in the map
-    until the next map update)."""
+    degeneracy_threshold), else None. observed: (N,) bool (None when the check is off), the
+    points lie on mapped ground; the others count as points without a normal (a wall coming
+    into view is not in the map until the next map update)."""
     if cfg.degeneracy_threshold <= 0 or normals is None:
         return None
     lam, vec = np.linalg.eigh(normal_information(normals * observed[:, None]))

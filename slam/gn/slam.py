@@ -62,7 +62,8 @@ class GaussNewtonSlam(Slam):
         cfg = self.config
         points = np.ascontiguousarray(pts.points, dtype=np.float64)
         normals = surface_normals(cfg, points)
-        observed = self.maps.observed(transform_points(prediction.pose, points))
+        observed = (self.maps.observed(transform_points(prediction.pose, points))
+                    if cfg.degeneracy_threshold > 0 else None)
         degenerate = degenerate_direction(cfg, normals, observed, prediction.pose)
         self._degenerate_scans += degenerate is not None
         has_gyro = cfg.use_imu and imu is not None and len(imu.gyro) > 0
