@@ -165,7 +165,7 @@ def format_gallery(rows: list[dict]) -> str:
     lines += ["", "| log | " + " | ".join(algos) + " |", "|---|" + "---|" * len(algos)]
     by = {(r["log"], r["algo"]): r for r in rows}
     for lg in logs:
-        cells = [f"![{lg} {a}](docs/gallery/{by[(lg, a)]['png']})" if (lg, a) in by else "-"
+        cells = [f"![{lg} {a}]({by[(lg, a)]['png']})" if (lg, a) in by else "-"
                  for a in algos]
         lines.append(f"| {lg} | " + " | ".join(cells) + " |")
     return "\n".join(lines)

@@ -106,7 +106,7 @@ class SubmapsConfig:
     # probability_grid only:
     hit_probability: float = 0.55            # probability_grid: odds of a hit cell (probability_grid_inserter_options_2d)
     miss_probability: float = 0.49           # probability_grid: odds of a freed cell
-    min_probability: float = 0.1             # Cartographer's kMinProbability / kMaxProbability clamp
+    min_probability: float = 0.1             # probability_grid: clamp below (Cartographer's kMinProbability)
     max_probability: float = 0.9             # probability_grid: clamp above
     # ours: a hit ray frees space only up to this many range sigmas short of the hit (0 = up to
     # the hit cell, as Cartographer); the band is marked observed, not free, so short beams do
@@ -133,8 +133,8 @@ class SubmapsConfig:
 class LocalConfig:
     """TRAJECTORY_BUILDER_2D: scan-to-submap matching (local SLAM)."""
 
-    min_range: float = 0.12                  # TB3
-    max_range: float = 3.5                   # TB3
+    min_range: float = 0.12                  # m, closer readings are dropped (TB3)
+    max_range: float = 3.5                   # m, farther readings are no return (TB3)
     missing_data_ray_length: float = 3.0     # TB3; no-return beams free space up to this range
     voxel_filter_size: float = 0.025         # m, one point per voxel before insertion
     # Cartographer's voxel filters keep a random point of each voxel (RandomizedVoxelFilter);
