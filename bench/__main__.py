@@ -2,15 +2,15 @@
 from __future__ import annotations
 
 import argparse
-import os
 import sys
 from pathlib import Path
 
+from worlds.cli import Parser, check_out_dir, non_negative_int, positive_int, run_cli, share_0_1
 from worlds.yamlio import InputError
 
 
 def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="python -m bench", description=__doc__)
+    p = Parser(prog="python -m bench", description=__doc__)
     sub = p.add_subparsers(dest="command", required=True)
 
     r = sub.add_parser("run", help="run worlds x algorithms x repeats, write results and report")
@@ -21,16 +21,16 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--suite", metavar="NAME|FILE",
                    help="a suite of worlds (shipped: general) or a suite YAML file; each world is "
                         "recorded with --draws noise draws")
-    r.add_argument("--draws", type=int,
+    r.add_argument("--draws", type=positive_int,
                    help="noise draws per world (default: the suite's, 3; 1 without a suite)")
-    r.add_argument("--min-coverage", type=float, metavar="SHARE",
+    r.add_argument("--min-coverage", type=share_0_1, metavar="SHARE",
                    help="a log whose lidar saw less than this share of the true wall cells gives "
                         "failed rows (default 0.95)")
-    r.add_argument("--repeats", type=int,
+    r.add_argument("--repeats", type=positive_int,
                    help="runs per world, algorithm and draw (default 10; 1 with --suite)")
     r.add_argument("--algo", help="comma-separated algorithms (default: all registered)")
     r.add_argument("--noise", help="sensor-noise profile name or YAML (default realistic)")
-    r.add_argument("--seed", type=int, help="base seed (default 0)")
+    r.add_argument("--seed", type=non_negative_int, help="base seed, a non-negative integer (default 0)")
     r.add_argument("--vary", choices=["slam", "data", "both"],
                    help="what changes between repeats: SLAM seed (default, as the study), "
                         "sensor-noise seed, or both")
@@ -39,7 +39,7 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--set", action="append", metavar="ALGO.FIELD=VALUE",
                    help="set one config field of one algorithm, on top of --config "
                         "(repeatable; e.g. pf.particles=50, graph.pose_graph.enable_loop_closure=false)")
-    r.add_argument("--jobs", type=int, default=None, help="worker processes (default: all cores)")
+    r.add_argument("--jobs", type=positive_int, default=None, help="worker processes (default: all cores)")
     r.add_argument("--out", help="output directory (default runs/<UTC timestamp>)")
     r.add_argument("--resume", metavar="DIR", help="complete the run in DIR (same seeds)")
     r.add_argument("--scheduler", metavar="ADDRESS",
@@ -56,8 +56,8 @@ def build_parser() -> argparse.ArgumentParser:
     g.add_argument("--update", action="store_true", help="write the baseline instead")
     g.add_argument("--world", help="worlds of the matrix (default: the baseline's)")
     g.add_argument("--algo", help="algorithms of the matrix (default: the baseline's)")
-    g.add_argument("--repeats", type=int, help="repeats (default: the baseline's)")
-    g.add_argument("--jobs", type=int, default=None)
+    g.add_argument("--repeats", type=positive_int, help="repeats (default: the baseline's)")
+    g.add_argument("--jobs", type=positive_int, default=None, help="worker processes (default: all cores)")
     g.add_argument("--out", help="keep the regression run in this directory")
     return p
 
@@ -116,18 +116,16 @@ def _spec_from_args(args):
 
 
 def cmd_run(args, argv) -> int:
+    from bench.cache import cache_dir
     from bench.report import write_report
     from bench.runner import default_out_dir, print_outcome, run_benchmark
-    if args.repeats is not None and args.repeats < 1:
-        raise InputError(f"--repeats must be >= 1, got {args.repeats}")
-    if args.jobs is not None and args.jobs < 1:
-        raise InputError(f"--jobs must be >= 1, got {args.jobs}")
-    if args.draws is not None and args.draws < 1:
-        raise InputError(f"--draws must be >= 1, got {args.draws}")
     if args.resume and args.out and Path(args.out) != Path(args.resume):
         raise InputError("give either --resume DIR or --out DIR, not both")
+    out_dir = check_out_dir(args.resume or args.out or default_out_dir(),
+                            "--resume" if args.resume else "--out")
     spec = _spec_from_args(args)
-    out_dir = Path(args.resume or args.out or default_out_dir())
+    if not spec.logs:
+        cache_dir()  # the logs are recorded into it: a cache that cannot be made fails now
     outcome = run_benchmark(spec, out_dir, jobs=args.jobs, scheduler=args.scheduler,
                             resume=bool(args.resume), progress=not args.no_progress, argv=argv)
     print_outcome(outcome)
@@ -151,26 +149,15 @@ def cmd_regress(args) -> int:
     from bench.plan import parse_worlds, resolve_algos
     from bench.regress import regress
     return regress(args.baseline, update=args.update,
-                   worlds=parse_worlds(args.world) if args.world else None,
-                   algos=resolve_algos(args.algo) if args.algo else None,
+                   worlds=parse_worlds(args.world) if args.world is not None else None,
+                   algos=resolve_algos(args.algo) if args.algo is not None else None,
                    repeats=args.repeats, jobs=args.jobs, out=args.out)
 
 
 def main(argv: list[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
-    args = build_parser().parse_args(argv)
-    try:
-        if args.command == "run":
-            return cmd_run(args, argv)
-        if args.command == "report":
-            return cmd_report(args)
-        return cmd_regress(args)
-    except InputError as err:
-        print(f"error: {err}", file=sys.stderr)
-        return 2
-    except KeyboardInterrupt:
-        print("interrupted", file=sys.stderr)
-        return 130
+    commands = {"run": lambda args: cmd_run(args, argv), "report": cmd_report, "regress": cmd_regress}
+    return run_cli(build_parser, lambda args: commands[args.command](args), argv)
 
 
 if __name__ == "__main__":

@@ -12,18 +12,24 @@ import hashlib
 import os
 from pathlib import Path
 
+from worlds.yamlio import InputError
+
 __all__ = ["cache_dir", "world_file", "world_digest", "noise_digest", "log_key", "log_path", "get_log"]
 
 
 def cache_dir() -> Path:
-    """The log cache directory (created on demand)."""
+    """The log cache directory (created on demand); InputError naming it if it cannot be."""
     env = os.environ.get("SLAM_BENCH_CACHE")
     if env:
         d = Path(env).expanduser()
     else:
         base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
         d = Path(base) / "slam-bench" / "logs"
-    d.mkdir(parents=True, exist_ok=True)
+    try:
+        d.mkdir(parents=True, exist_ok=True)
+    except OSError as err:
+        raise InputError(f"{d}: log cache: {err.strerror} (set SLAM_BENCH_CACHE to a folder "
+                         "that can be written)") from None
     return d
 
 

@@ -11,14 +11,37 @@ from __future__ import annotations
 import concurrent.futures as cf
 import os
 import signal
+import threading
+import time
 
 from worlds.yamlio import InputError
 
 __all__ = ["make_executor", "InlineExecutor", "PoolExecutor", "DaskExecutor"]
 
 
-def _ignore_sigint() -> None:
+def _worker_init() -> None:
+    """A pool worker: ignores Ctrl-C (the runner handles it once and stops the workers itself)
+    and dies with its parent, whatever signal ends it: Linux delivers SIGKILL when the parent
+    dies (prctl PR_SET_PDEATHSIG); elsewhere a thread notices the parent is gone."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    parent = os.getppid()
+    try:
+        import ctypes
+        libc = ctypes.CDLL(None, use_errno=True)
+        pr_set_pdeathsig = 1
+        armed = libc.prctl(pr_set_pdeathsig, signal.SIGKILL, 0, 0, 0) == 0
+    except (OSError, AttributeError):
+        armed = False
+    if parent == 1:   # orphaned before the signal was armed
+        os._exit(1)
+    if not armed:
+        threading.Thread(target=_watch_parent, args=(parent,), daemon=True).start()
+
+
+def _watch_parent(parent: int) -> None:
+    while os.getppid() == parent:
+        time.sleep(0.5)
+    os._exit(1)
 
 
 class InlineExecutor:
@@ -66,8 +89,7 @@ class PoolExecutor:
 
     def __init__(self, jobs: int):
         self.workers = jobs
-        # workers ignore Ctrl-C: the runner handles it once and stops them itself
-        self.pool = cf.ProcessPoolExecutor(max_workers=jobs, initializer=_ignore_sigint)
+        self.pool = cf.ProcessPoolExecutor(max_workers=jobs, initializer=_worker_init)
 
     def submit(self, fn, *args):
         return self.pool.submit(fn, *args)

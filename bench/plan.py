@@ -182,10 +182,11 @@ def load_plugins() -> list[str]:
 
 
 def resolve_algos(text: str | None) -> list[str]:
-    """'pf,gn' -> checked names; None/'all' -> every registered algorithm (built-ins first)."""
+    """'pf,gn' -> checked names; None/'all' -> every registered algorithm (built-ins first);
+    an empty text is an InputError."""
     from slam import registry
     order = registry.names()
-    if text is None or str(text).strip() in ("", "all"):
+    if text is None or str(text).strip() == "all":
         if not order:
             raise InputError("no SLAM algorithm is registered")
         return order

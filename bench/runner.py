@@ -12,16 +12,21 @@ rows are stored as failed with the reason, so they show in the report and in no 
 """
 from __future__ import annotations
 
+import contextlib
 import datetime as _dt
+import fcntl
+import io
 import json
+import os
 import sys
+import tempfile
 from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from worlds.yamlio import InputError, atomic_write_text
+from worlds.yamlio import InputError, atomic_write_bytes, atomic_write_text
 from bench import cache
 from bench.executors import make_executor
 from bench.plan import RunSpec, Task, config_dict, load_config_checked, load_plugins, make_tasks
@@ -30,7 +35,9 @@ from bench.results import RESULTS_NAME, RUN_NAME, ResultStore, jsonable
 from bench.task import WorldInfo, compile_algorithm, execute, new_row, record_log, versions
 
 __all__ = ["run_benchmark", "RunOutcome", "load_worlds", "default_out_dir", "read_run",
-           "map_path", "truth_path"]
+           "map_path", "truth_path", "run_lock", "LOCK_NAME"]
+
+LOCK_NAME = ".lock"   # held (flock) by the run writing into the folder; holds its pid
 
 
 @dataclass
@@ -108,30 +115,68 @@ def _check_out_dir(out_dir: Path, resume: bool) -> None:
         raise InputError(f"--resume {out_dir}: no {RUN_NAME} there: nothing to resume")
 
 
+def _check_cache_writable(spec: RunSpec, world_map: dict, world_files: dict) -> None:
+    """InputError naming the log cache when a log must be recorded and the cache cannot take
+    it (checked by writing, so a read-only folder is caught for root too); a read-only cache
+    that holds every log is fine."""
+    needed = {(t.world, t.log_seed) for t in make_tasks(spec, list(world_map))}
+    if all(cache.log_path(world_map[w], s, spec.noise, world_files[w]).exists() for w, s in needed):
+        return
+    folder = cache.cache_dir()
+    try:
+        probe = tempfile.NamedTemporaryFile(dir=folder, prefix=".probe.")
+        probe.close()
+    except OSError as err:
+        raise InputError(f"{folder}: log cache: {err.strerror or err} (set SLAM_BENCH_CACHE to a "
+                         "folder that can be written)") from None
+
+
+def _write_npz(path: Path, **arrays) -> None:
+    """A compressed .npz written atomically under a unique temporary name."""
+    buf = io.BytesIO()
+    np.savez_compressed(buf, **{k: np.asarray(v) for k, v in arrays.items()})
+    atomic_write_bytes(path, buf.getvalue())
+
+
 def _save_truth(out_dir: Path, key: str, world, truth) -> None:
-    p = truth_path(out_dir, key)
-    p.parent.mkdir(parents=True, exist_ok=True)
-    np.savez_compressed(p, prob=truth.prob, resolution=truth.resolution, origin=truth.origin,
-                        bounds=np.asarray(world.bounds, dtype=np.float64))
+    _write_npz(truth_path(out_dir, key), prob=truth.prob, resolution=truth.resolution,
+               origin=truth.origin, bounds=np.asarray(world.bounds, dtype=np.float64))
 
 
 def _save_gt(out_dir: Path, key: str, seed: int, log) -> None:
     """True trajectory of the log (for the trajectory figure), once per world and log seed."""
     p = Path(out_dir) / "maps" / key / f"gt_s{int(seed)}.npz"
     if not p.exists() and log is not None and log.has_ground_truth:
-        p.parent.mkdir(parents=True, exist_ok=True)
-        np.savez_compressed(p, times=log.gt_t, poses=log.gt_pose)
+        _write_npz(p, times=log.gt_t, poses=log.gt_pose)
 
 
 def _save_arrays(out_dir: Path, task: Task, arrays: dict | None) -> str | None:
     if arrays is None:
         return None
     p = map_path(out_dir, task.world, task.algo, task.repeat)
-    p.parent.mkdir(parents=True, exist_ok=True)
-    tmp = p.with_suffix(".tmp.npz")
-    np.savez_compressed(tmp, **{k: np.asarray(v) for k, v in arrays.items()})
-    tmp.replace(p)
+    _write_npz(p, **arrays)
     return str(p.relative_to(out_dir))
+
+
+@contextlib.contextmanager
+def run_lock(out_dir: Path):
+    """Hold DIR/.lock (an exclusive flock holding the pid) while a run writes into DIR; a second
+    run on the same folder gets an InputError naming the holder's pid."""
+    out_dir.mkdir(parents=True, exist_ok=True)
+    path = out_dir / LOCK_NAME
+    fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
+    try:
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            holder = os.pread(fd, 32, 0).decode(errors="replace").strip() or "?"
+            raise InputError(f"{out_dir}: in use by another bench run (pid {holder}); wait for it "
+                             "to finish or stop it") from None
+        os.ftruncate(fd, 0)
+        os.pwrite(fd, f"{os.getpid()}\n".encode(), 0)
+        yield
+    finally:
+        os.close(fd)
 
 
 def _write_run_json(out_dir: Path, spec: RunSpec, world_map: dict, world_files: dict, argv: list[str] | None,
@@ -165,6 +210,12 @@ def run_benchmark(spec: RunSpec, out_dir: str | Path, jobs: int | None = None,
     InputError before any work starts.
     """
     out_dir = Path(out_dir)
+    with run_lock(out_dir):
+        return _run_locked(spec, out_dir, jobs, scheduler, resume, progress, argv, stream)
+
+
+def _run_locked(spec: RunSpec, out_dir: Path, jobs, scheduler, resume, progress, argv,
+                stream) -> RunOutcome:
     _check_out_dir(out_dir, resume)
     previous = read_run(out_dir) if resume else None
     if previous is not None and RunSpec.from_json(previous["spec"]) != spec:
@@ -177,6 +228,8 @@ def run_benchmark(spec: RunSpec, out_dir: str | Path, jobs: int | None = None,
     if hasattr(sim, "load_profile") and not spec.logs:
         sim.load_profile(spec.noise)  # a bad --noise fails here, before any work
     world_map, world_files = load_worlds(list(spec.worlds))
+    if not spec.logs:
+        _check_cache_writable(spec, world_map, world_files)
     _write_run_json(out_dir, spec, world_map, world_files, argv, previous)
     store = ResultStore(out_dir)
 

@@ -14,10 +14,16 @@ import argparse
 import json
 import math
 import sys
+from pathlib import Path
 
+from worlds.cli import Parser, check_out_file, integer, number, positive_float, run_cli, share_0_1
 from worlds.yamlio import InputError
 
 __all__ = ["main", "build_parser", "to_json"]
+
+# --tolerance k dilates both maps by a (2k+1)^2 square: cost grows as k^2, and 50 cells
+# (2.5 m at 0.05 m) is already far past any tolerance that says something about a map
+MAX_TOLERANCE = 50
 
 
 def to_json(obj) -> str:
@@ -43,15 +49,27 @@ def _pose_arg(text: str):
         vals = [float(p) for p in parts]
     except ValueError:
         raise argparse.ArgumentTypeError(f"expected X,Y,YAW (numbers) or 'none', got {text!r}") from None
+    if not all(math.isfinite(v) for v in vals):
+        raise argparse.ArgumentTypeError(f"expected X,Y,YAW (finite numbers) or 'none', got {text!r}")
     if len(vals) != 3:
         raise argparse.ArgumentTypeError(f"expected X,Y,YAW (3 numbers) or 'none', got {text!r}")
     return tuple(vals)
 
 
+def _picture_arg(text: str) -> str:
+    from metrics.plot import PICTURE_FORMATS
+
+    if Path(text).suffix.lower().lstrip(".") not in PICTURE_FORMATS:
+        names = [f".{f}" for f in PICTURE_FORMATS]
+        raise argparse.ArgumentTypeError(
+            f"expected a {', '.join(names[:-1])} or {names[-1]} file, got {text!r}")
+    return text
+
+
 def build_parser() -> argparse.ArgumentParser:
     from metrics.align import MODES
 
-    p = argparse.ArgumentParser(prog="python -m metrics", description="Score maps and trajectories.")
+    p = Parser(prog="python -m metrics", description="Score maps and trajectories.")
     sub = p.add_subparsers(dest="command", required=True)
 
     s = sub.add_parser("score", help="grid portion (precision, sensitivity), ADNN, SSIM of a map")
@@ -59,23 +77,27 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--truth", required=True,
                    help="the world's YAML (surface form and the study's cell rule) or a true map "
                         "(ROS map_server YAML + PGM: the cell rule only)")
-    s.add_argument("--tau", type=float, default=None, metavar="M",
-                   help="tolerance of the surface form in metres (default 0.02); needs a world")
+    s.add_argument("--tau", type=number(0.0, 1.0), default=None, metavar="M",
+                   help="tolerance of the surface form in metres, 0..1 (default 0.02); needs a world")
     s.add_argument("--align", default="auto", choices=MODES,
                    help="alignment mode (default auto: icp from --start, global if --start none)")
     s.add_argument("--start", type=_pose_arg, default=(0.0, 0.0, 0.0), metavar="X,Y,YAW",
                    help="prior transform map -> truth, i.e. the map frame's pose in the truth "
                         "frame (default 0,0,0: the map is in the world frame); 'none' = unknown")
-    s.add_argument("--tolerance", type=int, default=0, help="match tolerance in cells (default 0)")
-    s.add_argument("--occupied-thresh", type=float, default=0.65)
-    s.add_argument("--picture", help="write the TP/FP/FN overlay PNG here")
+    s.add_argument("--tolerance", type=integer(0, MAX_TOLERANCE), default=0,
+                   help=f"match tolerance in cells, 0..{MAX_TOLERANCE} (default 0)")
+    s.add_argument("--occupied-thresh", type=share_0_1, default=0.65,
+                   help="a cell is occupied at p >= this (default 0.65)")
+    s.add_argument("--picture", type=_picture_arg,
+                   help="write the TP/FP/FN overlay here (.png, .pdf or .svg)")
     s.add_argument("--title", default="", help="title of the picture")
     s.add_argument("--json", action="store_true", help="print one JSON object")
 
     t = sub.add_parser("trajectory", help="ATE and RPE of a TUM trajectory against the true one")
     t.add_argument("--est", required=True, help="estimated trajectory (TUM)")
     t.add_argument("--truth", required=True, help="true trajectory: TUM file, or the sensor log (.npz) whose gt_pose to use")
-    t.add_argument("--segment", type=float, default=1.0, help="RPE segment length, m (default 1)")
+    t.add_argument("--segment", type=positive_float, default=1.0,
+                   help="RPE segment length, m (default 1)")
     t.add_argument("--json", action="store_true")
 
     r = sub.add_parser("relations", help="relations metric (Kuemmerle et al. 2009)")
@@ -140,14 +162,14 @@ def _score(args) -> int:
     from metrics.score import pose_of, save_overlay_png, score_map
     from metrics.surface import DEFAULT_TAU_M, classify_surface, visible_surfaces
 
+    if args.picture:
+        check_out_file(args.picture, "--picture")
     est = _read_map(args.map)
     truth, world = _truth(args.truth)
     if args.tau is not None and world is None:
         raise InputError(f"--tau: the surface form needs the world's YAML as --truth, "
                          f"{args.truth} is a raster map")
     tau = DEFAULT_TAU_M if args.tau is None else args.tau
-    if not (math.isfinite(tau) and 0.0 <= tau <= 1.0):
-        raise InputError(f"--tau: expected metres in [0, 1], got {args.tau}")
     if not est.occupied(args.occupied_thresh).any():
         raise InputError(f"{args.map}: the map has no occupied cell (p >= {args.occupied_thresh}): "
                          "precision and ADNN undefined")
@@ -201,12 +223,8 @@ def _relations(args) -> int:
 
 
 def main(argv: list[str] | None = None) -> int:
-    args = build_parser().parse_args(argv)
-    try:
-        return {"score": _score, "trajectory": _trajectory, "relations": _relations}[args.command](args)
-    except InputError as err:
-        print(f"error: {err}", file=sys.stderr)
-        return 2
+    commands = {"score": _score, "trajectory": _trajectory, "relations": _relations}
+    return run_cli(build_parser, lambda args: commands[args.command](args), argv)
 
 
 if __name__ == "__main__":

@@ -11,7 +11,11 @@ import numpy as np
 
 from worlds.grid import FREE_THRESH
 
-__all__ = ["COLOURS", "overlay_rgb", "plot_overlay", "save_overlay", "plot_surface", "save_surface"]
+__all__ = ["COLOURS", "PICTURE_FORMATS", "overlay_rgb", "plot_overlay", "save_overlay",
+           "plot_surface", "save_surface"]
+
+# the file types save_overlay and save_surface write (by the path's suffix)
+PICTURE_FORMATS = ("png", "pdf", "svg")
 
 COLOURS = {"tp": (0.10, 0.70, 0.15), "fp": (0.90, 0.10, 0.10), "fn": (1.00, 0.85, 0.00),
            "free": (0.86, 0.86, 0.86), "unknown": (1.0, 1.0, 1.0)}
@@ -73,7 +77,7 @@ def _titles(ax, title: str, sub: str) -> None:
 
 
 def save_overlay(overlay, path: str | os.PathLike, title: str = "") -> None:
-    """Write the overlay picture as a PNG (no pyplot global state)."""
+    """Write the overlay picture, as PNG, PDF or SVG by the suffix (no pyplot global state)."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
@@ -135,7 +139,7 @@ def plot_surface(ax, surface, title: str = "") -> None:
 
 
 def save_surface(surface, path: str | os.PathLike, title: str = "") -> None:
-    """Write the surface-form picture (plot_surface) as a PNG."""
+    """Write the surface-form picture (plot_surface), as PNG, PDF or SVG by the suffix."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 

@@ -251,6 +251,7 @@ def format_relations(res: dict) -> str:
 
 def add_relations_arguments(parser: argparse.ArgumentParser) -> None:
     """The options of `python -m metrics relations`."""
+    from worlds.cli import non_negative_float
     parser.add_argument("--traj", required=True, help="estimated trajectory, TUM text file")
     parser.add_argument("--relations", required=True, help="relations file (t1 t2 x y z roll pitch yaw)")
     parser.add_argument("--odom", default=None,
@@ -259,8 +260,9 @@ def add_relations_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--lookup", choices=LOOKUPS, default="interpolate",
                         help="interpolate between poses (default) or use only poses within "
                              "--tolerance of each relation time")
-    parser.add_argument("--tolerance", type=float, default=1e-5, help="s, for --lookup exact")
-    parser.add_argument("--long", dest="long_s", type=float, default=5.0,
+    parser.add_argument("--tolerance", type=non_negative_float, default=1e-5,
+                        help="s, for --lookup exact")
+    parser.add_argument("--long", dest="long_s", type=non_negative_float, default=5.0,
                         help="relations spanning at least this many seconds are also reported apart")
     parser.add_argument("--json", action="store_true", help="print one JSON object")
 

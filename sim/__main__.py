@@ -10,6 +10,7 @@ import argparse
 import sys
 from pathlib import Path
 
+from worlds.cli import Parser, check_out_file, non_negative_int, run_cli, share_0_1
 from worlds.yamlio import InputError
 
 # `record` wrote the log, but it did not finish its route or did not cover the walls
@@ -17,17 +18,17 @@ EXIT_UNTRUSTED_LOG = 3
 
 
 def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="python -m sim", description="Simulate a TurtleBot3-like robot "
-                                "and record sensor logs.")
+    p = Parser(prog="python -m sim", description="Simulate a TurtleBot3-like robot "
+               "and record sensor logs.")
     sub = p.add_subparsers(dest="command", required=True)
     r = sub.add_parser("record", help="drive a world's route and write a sensor log (.npz)")
     r.add_argument("--world", required=True, help="world name (python -m worlds list) or YAML file")
-    r.add_argument("--seed", type=int, default=0)
+    r.add_argument("--seed", type=non_negative_int, default=0, help="non-negative integer (default 0)")
     r.add_argument("--out", required=True, help="output .npz")
     r.add_argument("--noise", default="realistic", help="profile name (ideal, gazebo, realistic) "
                    "or YAML file (default: realistic)")
     r.add_argument("--config", default=None, help="RecordConfig YAML (rates, lidar, controller, robot)")
-    r.add_argument("--min-coverage", type=float, default=None, metavar="SHARE",
+    r.add_argument("--min-coverage", type=share_0_1, default=None, metavar="SHARE",
                    help="warn and exit 3 when the log's lidar saw less than this share of the "
                         "true wall cells (default 0.95)")
     s = sub.add_parser("show", help="draw the true and odometry paths of a log over its world")
@@ -50,8 +51,7 @@ def cmd_record(args) -> int:
     from sim.log import write_log
     from sim.record import MIN_COVERAGE, record, recording_problem
     min_cover = MIN_COVERAGE if args.min_coverage is None else args.min_coverage
-    if not 0.0 <= min_cover <= 1.0:
-        raise InputError(f"--min-coverage: expected a share in [0, 1], got {args.min_coverage}")
+    check_out_file(args.out)
     world = _load_world(args.world)
     log = record(world, seed=args.seed, noise=args.noise, config=args.config)
     write_log(log, args.out)
@@ -80,6 +80,7 @@ def cmd_show(args) -> int:
         except (InputError, ImportError, OSError):
             continue
     out = args.out or str(Path(args.log).with_suffix(".png"))
+    check_out_file(out)
     plot_log(log, world, out)
     print(out)
     return 0
@@ -88,6 +89,7 @@ def cmd_show(args) -> int:
 def cmd_import(args) -> int:
     from sim.importers import import_log
     from sim.log import write_log
+    check_out_file(args.out)
     log = import_log(args.file, fmt=args.format)
     write_log(log, args.out)
     print(f"{args.out}: {log.n_scans} scans, {log.duration:.1f} s")
@@ -95,12 +97,8 @@ def cmd_import(args) -> int:
 
 
 def main(argv: list[str] | None = None) -> int:
-    args = build_parser().parse_args(argv)
-    try:
-        return {"record": cmd_record, "show": cmd_show, "import": cmd_import}[args.command](args)
-    except InputError as err:
-        print(f"error: {err}", file=sys.stderr)
-        return 2
+    commands = {"record": cmd_record, "show": cmd_show, "import": cmd_import}
+    return run_cli(build_parser, lambda args: commands[args.command](args), argv)
 
 
 if __name__ == "__main__":

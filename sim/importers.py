@@ -46,7 +46,7 @@ from pathlib import Path
 
 import numpy as np
 
-from sim.log import SensorLog
+from sim.log import SensorLog, value_problem
 from worlds.yamlio import InputError
 
 __all__ = ["import_log", "detect_format", "default_angles", "FORMATS", "NO_RETURN_MARGIN"]
@@ -133,7 +133,11 @@ def import_log(path: str | os.PathLike, fmt: str | None = None) -> SensorLog:
             continue
         acc.count(tokens[0])
         parse(acc, tokens, lineno)
-    return acc.build()
+    log = acc.build()
+    problem = value_problem(log)
+    if problem:
+        raise InputError(f"{p}: {problem}")
+    return log
 
 
 # --- parsing -------------------------------------------------------------------------------

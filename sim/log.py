@@ -23,8 +23,9 @@ from pathlib import Path
 import numpy as np
 
 from worlds.yamlio import InputError, atomic_write_bytes
+from sim.logcheck import log_problem
 
-__all__ = ["SensorLog", "read_log", "write_log", "FORMAT_VERSION"]
+__all__ = ["SensorLog", "read_log", "write_log", "value_problem", "FORMAT_VERSION"]
 
 FORMAT_VERSION = 1
 
@@ -141,7 +142,11 @@ def _shape_problem(arrays: dict[str, np.ndarray]) -> str | None:
 
 
 def write_log(log: SensorLog, path: str | Path) -> None:
-    """Write `log` to an .npz atomically (a Ctrl-C never leaves half a file)."""
+    """Write `log` to an .npz atomically (a Ctrl-C never leaves half a file); a log whose values
+    break the rules of sim.logcheck raises InputError naming the file and the first bad value."""
+    problem = value_problem(log)
+    if problem:
+        raise InputError(f"{path}: {problem}")
     meta = dict(log.meta)
     meta["format_version"] = FORMAT_VERSION
     buf = io.BytesIO()
@@ -167,17 +172,20 @@ def read_log(path: str | Path) -> SensorLog:
     try:
         with np.load(p, allow_pickle=False) as npz:
             data = {k: npz[k] for k in npz.files}
-    except (OSError, ValueError, zipfile.BadZipFile, EOFError) as err:
-        raise InputError(f"{p}: not a readable sensor log (.npz): {err}") from None
+    except Exception as err:   # any damage numpy's npz/npy parsing can meet
+        reason = " ".join(str(err).split()) or type(err).__name__
+        raise InputError(f"{p}: not a readable sensor log (.npz): {reason}") from None
     if "meta" not in data:
         raise InputError(f"{p}: not a sensor log: no 'meta' entry")
     try:
         meta = json.loads(str(np.asarray(data["meta"]).reshape(-1)[0]))
     except json.JSONDecodeError as err:
         raise InputError(f"{p}: meta: not valid JSON: {err}") from None
+    if not isinstance(meta, dict):
+        raise InputError(f"{p}: meta: expected a mapping, got {type(meta).__name__}")
     version = meta.get("format_version")
-    if not isinstance(version, int):
-        raise InputError(f"{p}: meta.format_version: missing or not an integer")
+    if not isinstance(version, int) or isinstance(version, bool) or version < 1:
+        raise InputError(f"{p}: meta.format_version: expected an integer >= 1, got {version!r}")
     if version > FORMAT_VERSION:
         raise InputError(f"{p}: meta.format_version: {version} is newer than this reader "
                          f"(reads up to {FORMAT_VERSION}); upgrade the package")
@@ -185,7 +193,12 @@ def read_log(path: str | Path) -> SensorLog:
     if missing:
         raise InputError(f"{p}: missing arrays: {', '.join(missing)}")
     arrays = {n: np.asarray(data[n], dtype=np.float64) for n in _ARRAYS}
-    problem = _shape_problem(arrays)
+    problem = _shape_problem(arrays) or log_problem(arrays, meta)
     if problem:
         raise InputError(f"{p}: {problem}")
     return SensorLog(**arrays, meta=meta)
+
+
+def value_problem(log: SensorLog) -> str | None:
+    """None if the log's values follow sim.logcheck's rules, else the first problem."""
+    return log_problem({name: getattr(log, name) for name in _ARRAYS}, log.meta)

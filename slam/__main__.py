@@ -5,16 +5,19 @@ from __future__ import annotations
 import argparse
 import sys
 
+from worlds.cli import Parser, check_out_dir, non_negative_int, run_cli
+
 
 def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="python -m slam", description="Run a 2D lidar SLAM on a sensor log.")
+    p = Parser(prog="python -m slam", description="Run a 2D lidar SLAM on a sensor log.")
     sub = p.add_subparsers(dest="command", required=True)
     r = sub.add_parser("run", help="run one algorithm on one log and write map, trajectory, stats")
     r.add_argument("--algo", required=True, help="algorithm name (see `list`)")
     r.add_argument("--log", required=True, help="sensor log (.npz)")
     r.add_argument("--out", required=True, help="output directory")
     r.add_argument("--config", default=None, help="YAML with config overrides")
-    r.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    r.add_argument("--seed", type=non_negative_int, default=0,
+                   help="random seed, a non-negative integer (default 0)")
     r.add_argument("--quiet", action="store_true", help="print nothing on success")
     sub.add_parser("list", help="list the algorithms")
     f = sub.add_parser("fields", help="print an algorithm's config fields as a Markdown table")
@@ -30,6 +33,7 @@ def cmd_run(algo: str, log: str, out: str, config: str | None = None, seed: int 
     from slam.io import write_result
     from slam.replay import run_algorithm
 
+    check_out_dir(out)
     result = run_algorithm(algo, read_log(log), config=config, seed=seed)
     write_result(result, out)
     return result.stats
@@ -68,25 +72,21 @@ def cmd_fields(algo: str, update: str | None = None) -> str:
     return f"{page}: field table of {algo} written"
 
 
-def main(argv: list[str] | None = None) -> int:
-    args = build_parser().parse_args(argv)
-    from worlds.yamlio import InputError
+def _dispatch(args) -> None:
+    if args.command == "list":
+        for line in cmd_list():
+            print(line)
+    elif args.command == "fields":
+        print(cmd_fields(args.algo, args.update), end="" if args.update is None else "\n")
+    else:
+        stats = cmd_run(args.algo, args.log, args.out, args.config, args.seed)
+        if not args.quiet:
+            print(f"{args.algo}: {stats['scans_processed']} scans in {stats['wall_time_s']:.2f} s "
+                  f"({stats['realtime_factor']:.1f}x real time) -> {args.out}")
 
-    try:
-        if args.command == "list":
-            for line in cmd_list():
-                print(line)
-        elif args.command == "fields":
-            print(cmd_fields(args.algo, args.update), end="" if args.update is None else "\n")
-        else:
-            stats = cmd_run(args.algo, args.log, args.out, args.config, args.seed)
-            if not args.quiet:
-                print(f"{args.algo}: {stats['scans_processed']} scans in {stats['wall_time_s']:.2f} s "
-                      f"({stats['realtime_factor']:.1f}x real time) -> {args.out}")
-    except InputError as err:
-        print(f"error: {err}", file=sys.stderr)
-        return 2
-    return 0
+
+def main(argv: list[str] | None = None) -> int:
+    return run_cli(build_parser, _dispatch, argv)
 
 
 if __name__ == "__main__":

@@ -16,6 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from worlds.grid import Grid
+from worlds.limits import check_grid_cells
 from slam._kernels.insert import insert_rays_inplace
 from slam._kernels.prob import logodds_to_prob
 from slam.pose import transform_points
@@ -121,6 +122,9 @@ class GrowingGrid:
         add_t = max(0, -(-(hi_j - (self._j0 + rows)) // b)) * b
         if not (add_l or add_b or add_r or add_t):
             return False
+        check_grid_cells(rows + add_b + add_t, cols + add_l + add_r, "map",
+                         f"a point at ({xy_max[0]:.4g}, {xy_max[1]:.4g}) m or ({xy_min[0]:.4g}, "
+                         f"{xy_min[1]:.4g}) m (a pose far off)")
         for name, fill, dtype in self._layers():
             new = np.full((rows + add_b + add_t, cols + add_l + add_r), fill, dtype=dtype)
             new[add_b:add_b + rows, add_l:add_l + cols] = getattr(self, name)

@@ -64,10 +64,17 @@ def run(slam: Slam, log: SensorLog) -> SlamResult:
     update_times = []
     for scan, odom, imu, truth in _iter_inputs(log):
         u0 = time.perf_counter()
-        if truth_fed:
-            slam.update(scan, odom, imu, truth=truth)
-        else:
-            slam.update(scan, odom, imu)
+        try:
+            pose = (slam.update(scan, odom, imu, truth=truth) if truth_fed
+                    else slam.update(scan, odom, imu))
+        except (ValueError, ArithmeticError, np.linalg.LinAlgError) as err:
+            # numbers gone wrong (a config value out of range, a diverged estimate): a failed
+            # run, reported in one line, not a crash
+            raise InputError(f"algorithm '{slam.name}' failed at scan {scan.index} "
+                             f"(t = {scan.t:.3f} s): {type(err).__name__}: {err}") from err
+        if not np.all(np.isfinite(pose)):
+            raise InputError(f"algorithm '{slam.name}' gave a non-finite pose at scan {scan.index} "
+                             f"(t = {scan.t:.3f} s): {pose}")
         update_times.append(time.perf_counter() - u0)
     f0 = time.perf_counter()
     slam.finish()

@@ -6,11 +6,12 @@ import argparse
 import sys
 from pathlib import Path
 
+from worlds.cli import Parser, check_out_dir, check_out_file, non_negative_int, positive_float, run_cli
 from worlds.yamlio import InputError
 
 
 def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="python -m worlds", description="YAML worlds and their true maps.")
+    p = Parser(prog="python -m worlds", description="YAML worlds and their true maps.")
     sub = p.add_subparsers(dest="command", required=True)
     ls = sub.add_parser("list", help="worlds: name (or file), size, wall length, route given")
     ls.add_argument("paths", nargs="*", metavar="PATH",
@@ -23,11 +24,12 @@ def build_parser() -> argparse.ArgumentParser:
     r = sub.add_parser("render", help="write the ground-truth map pair DIR/NAME.yaml + DIR/NAME.pgm")
     r.add_argument("world", help="a shipped world name or a path to a world .yaml")
     r.add_argument("--out", required=True, help="output folder")
-    r.add_argument("--resolution", type=float, default=None, help="cell size in m (default: the world's)")
+    r.add_argument("--resolution", type=positive_float, default=None,
+                   help="cell size in m, > 0 (default: the world's)")
     r.add_argument("--png", action="store_true", help="also write DIR/NAME.png for people")
     g = sub.add_parser("generate", help="write a procedurally drawn world (same arguments, same file)")
     g.add_argument("kind", help="office | warehouse | hall | loop")
-    g.add_argument("--seed", type=int, required=True, help="non-negative integer")
+    g.add_argument("--seed", type=non_negative_int, required=True, help="non-negative integer")
     g.add_argument("--size", help="WxH in metres, e.g. 10x8 (default per kind: office 10x8, "
                                   "warehouse 12x9, hall 9x7, loop 12x8)")
     g.add_argument("--out", required=True, help="the world .yaml to write (folders are created)")
@@ -75,8 +77,8 @@ def cmd_show(world_arg: str, out: str | None, planned: bool = False) -> Path:
     from worlds.plot import save_world_png
     from worlds.route import plan_route, route_for
     w = load_world(world_arg)
+    path = check_out_file(out if out else f"{w.name}.png")
     route = plan_route(w) if planned else route_for(w)
-    path = Path(out) if out else Path(f"{w.name}.png")
     path.parent.mkdir(parents=True, exist_ok=True)
     save_world_png(w, path, route)
     return path
@@ -87,13 +89,9 @@ def cmd_render(world_arg: str, out: str, resolution: float | None = None, png: b
     from worlds.load import load_world
     from worlds.mapio import write_map
     from worlds.raster import rasterize
-    if resolution is not None and not resolution > 0:
-        raise InputError(f"--resolution: must be positive, got {resolution}")
+    d = check_out_dir(out)
     w = load_world(world_arg)
     grid = rasterize(w, resolution)
-    d = Path(out)
-    if d.exists() and not d.is_dir():
-        raise InputError(f"{d}: --out must be a folder")
     yp = d / f"{w.name}.yaml"
     write_map(grid, yp)
     if png:
@@ -112,8 +110,7 @@ def cmd_generate(kind: str, seed: int, size: str | None, out: str) -> tuple[Path
     path = Path(out)
     if path.suffix.lower() not in (".yaml", ".yml"):
         raise InputError(f"--out: expected a .yaml file, got {out!r}")
-    if path.is_dir():
-        raise InputError(f"--out: {out} is a folder; give a .yaml file")
+    check_out_file(path)
     text = generate_yaml(kind, seed, parse_size(size) if size is not None else None)
     atomic_write_text(path, text)
     w = load_world(path)
@@ -124,23 +121,21 @@ def cmd_generate(kind: str, seed: int, size: str | None, out: str) -> tuple[Path
                   f"({len(w.route)} waypoints)")
 
 
+def _dispatch(args) -> None:
+    if args.command == "list":
+        print("\n".join(cmd_list(args.paths)))
+    elif args.command == "generate":
+        path, summary = cmd_generate(args.kind, args.seed, args.size, args.out)
+        print(f"{path}: {summary}")
+    elif args.command == "show":
+        print(cmd_show(args.world, args.out, args.planned))
+    else:
+        yp = cmd_render(args.world, args.out, args.resolution, args.png)
+        print(f"{yp} + {yp.with_suffix('.pgm').name}")
+
+
 def main(argv: list[str] | None = None) -> int:
-    args = build_parser().parse_args(argv)
-    try:
-        if args.command == "list":
-            print("\n".join(cmd_list(args.paths)))
-        elif args.command == "generate":
-            path, summary = cmd_generate(args.kind, args.seed, args.size, args.out)
-            print(f"{path}: {summary}")
-        elif args.command == "show":
-            print(cmd_show(args.world, args.out, args.planned))
-        else:
-            yp = cmd_render(args.world, args.out, args.resolution, args.png)
-            print(f"{yp} + {yp.with_suffix('.pgm').name}")
-    except InputError as err:
-        print(f"error: {err}", file=sys.stderr)
-        return 2
-    return 0
+    return run_cli(build_parser, _dispatch, argv)
 
 
 if __name__ == "__main__":

@@ -27,6 +27,7 @@ import numpy as np
 import yaml
 
 from worlds.grid import Grid
+from worlds.limits import check_grid_cells
 from worlds.yamlio import InputError, atomic_write_bytes, atomic_write_text, load_yaml
 
 __all__ = ["read_map", "write_map", "read_pgm", "encode_pgm", "grid_to_pixels",
@@ -88,6 +89,7 @@ def read_pgm(path: str | os.PathLike) -> np.ndarray:
     (width, height, maxval), pos = _pgm_tokens(data, 3, str(p))
     if width <= 0 or height <= 0 or not (0 < maxval < 65536):
         raise InputError(f"{p}: bad PGM header (width {width}, height {height}, maxval {maxval})")
+    check_grid_cells(height, width, str(p), f"a {width} x {height} image")
     if magic == b"P5":
         pos += 1  # exactly one whitespace byte separates the header from the raster
         dtype = np.dtype(">u2") if maxval > 255 else np.dtype("u1")
@@ -126,6 +128,7 @@ def encode_pgm(pixels: np.ndarray, comment: str = "") -> bytes:
 # --- YAML + image -> Grid ----------------------------------------------------------------
 
 def _number(meta: dict, key: str, where: str) -> float:
+    """meta[key] as a finite float; InputError naming the file and the field otherwise."""
     v = meta[key]
     if isinstance(v, bool) or not isinstance(v, (int, float)) or not np.isfinite(v):
         raise InputError(f"{where}: {key}: expected a number, got {v!r}")
@@ -162,6 +165,8 @@ def read_map(yaml_path: str | os.PathLike) -> Grid:
     if (not isinstance(origin, (list, tuple)) or len(origin) not in (2, 3)
             or any(isinstance(v, bool) or not isinstance(v, (int, float)) for v in origin)):
         raise InputError(f"{where}: origin: expected [x, y, yaw], got {origin!r}")
+    if not np.all(np.isfinite(origin)):
+        raise InputError(f"{where}: origin: expected finite numbers, got {origin!r}")
     origin = [float(v) for v in origin] + ([0.0] if len(origin) == 2 else [])
     occ_th = _number(meta, "occupied_thresh", where)
     free_th = _number(meta, "free_thresh", where)

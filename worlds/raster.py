@@ -28,6 +28,7 @@ import shapely
 from scipy import ndimage
 
 from worlds.grid import Grid
+from worlds.limits import check_grid_cells
 from worlds.model import World
 from worlds.yamlio import InputError
 
@@ -54,6 +55,8 @@ def grid_frame(world: World, resolution: float | None = None) -> tuple[float, fl
     r0 = math.floor(ymin / res) - MARGIN_CELLS
     cols = math.ceil(xmax / res) + MARGIN_CELLS - c0
     rows = math.ceil(ymax / res) + MARGIN_CELLS - r0
+    check_grid_cells(rows, cols, f"{world.source or world.name}: resolution",
+                     f"{res:g} m over {xmax - xmin:.3g} m x {ymax - ymin:.3g} m")
     return _snap(c0 * res), _snap(r0 * res), res, rows, cols
 
 

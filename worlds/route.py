@@ -25,6 +25,7 @@ from scipy.sparse import csgraph
 
 from worlds.coverage import resample_path
 from worlds.grid import Grid
+from worlds.limits import max_route_cells
 from worlds.model import ROBOT_RADIUS, World
 from worlds.raster import rasterize
 from worlds.visibility import beam_angles, cast_rays, hit_cells
@@ -218,6 +219,14 @@ def plan_route(world: World, max_range: float = 3.0, clearance: float = 0.3,
 
     clearance: preferred distance (m) of the route from walls; spacing: candidate lattice (m).
     """
+    # the free space bounds the planner's graph (nodes, 8 edges each): checked from the geometry
+    # before the true map of a huge world is even made
+    xmin, ymin, xmax, ymax = world.bounds
+    free = int(((xmax - xmin) * (ymax - ymin) - world.solid.area) / world.resolution ** 2)
+    if free > max_route_cells():
+        raise InputError(f"{world.source or world.name}: route: the free space is about {free:,} cells, more "
+                         f"than the route planner takes on ({max_route_cells():,}, "
+                         "SLAM_BENCH_MAX_ROUTE_CELLS); give the world a route")
     truth = rasterize(world)
     graph = _RobotGraph(world, truth, clearance)
     if len(graph.xy) == 0:

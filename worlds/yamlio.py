@@ -8,6 +8,7 @@ unknown keys with a "did you mean" hint and wrong types with the field's path.
 from __future__ import annotations
 
 import dataclasses
+import math
 import difflib
 import os
 import re
@@ -33,9 +34,11 @@ def load_yaml(path: str | os.PathLike) -> Any:
     """Parse a YAML file; a missing or malformed file raises InputError naming it."""
     p = Path(path)
     try:
-        text = p.read_text()
+        text = p.read_text(encoding="utf-8")
     except FileNotFoundError:
         raise InputError(f"{p}: file not found") from None
+    except UnicodeDecodeError as err:
+        raise InputError(f"{p}: not a text file (byte {err.start} is not UTF-8)") from None
     except OSError as err:
         raise InputError(f"{p}: cannot read: {err.strerror}") from None
     try:
@@ -43,7 +46,8 @@ def load_yaml(path: str | os.PathLike) -> Any:
     except yaml.YAMLError as err:
         mark = getattr(err, "problem_mark", None)
         at = f" (line {mark.line + 1})" if mark is not None else ""
-        raise InputError(f"{p}: not valid YAML{at}: {getattr(err, 'problem', err)}") from None
+        problem = " ".join(str(getattr(err, "problem", None) or err).split())
+        raise InputError(f"{p}: not valid YAML{at}: {problem}") from None
 
 
 def _suggest(key: str, allowed: list[str]) -> str:
@@ -90,6 +94,8 @@ def _convert(tp: Any, value: Any, where: str, field: str) -> Any:
             return float(value)
         if isinstance(value, bool) or not isinstance(value, (int, float)):
             raise InputError(f"{where}: {field}: expected a number, got {value!r}")
+        if not math.isfinite(value):
+            raise InputError(f"{where}: {field}: expected a finite number, got {value!r}")
         return float(value)
     if tp is str:
         if not isinstance(value, str):
@@ -196,8 +202,20 @@ def dump_yaml(data: Any) -> str:
 
 
 def atomic_write_bytes(path: str | os.PathLike, data: bytes) -> None:
-    """Write `data` to `path` via a temporary file and rename: never a half-written file."""
+    """Write `data` to `path` via a temporary file and rename: never a half-written file.
+
+    An OSError names `path` (not the temporary file; a full disk names no file at all).
+    """
     p = Path(path)
+    try:
+        _write_and_rename(p, data)
+    except OSError as err:
+        if err.errno is None:
+            raise
+        raise OSError(err.errno, err.strerror, str(p)) from err
+
+
+def _write_and_rename(p: Path, data: bytes) -> None:
     p.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(prefix=f".{p.name}.", suffix=".tmp", dir=p.parent)
     try:

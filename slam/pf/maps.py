@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from worlds.limits import check_grid_cells
 from slam.pf._map_kernel import N_FIELDS, insert_scans, mark_touched, privatize
 
 __all__ = ["TiledMaps"]
@@ -23,6 +24,7 @@ class TiledMaps:
         self.tile = int(tile)
         n_tiles = int(np.ceil(2 * extent / (resolution * tile)))
         rows = cols = n_tiles * self.tile
+        check_grid_cells(rows, cols, "pf", f"map_extent {extent:g} m at delta {resolution:g} m")
         # the lower-left corner on the world's lattice (multiples of the resolution), as the
         # true map and the other algorithms' grids: a map rasterized on a lattice shifted by
         # part of a cell puts a wall's face in another cell than the true map does

@@ -13,7 +13,12 @@ def _err_line(capsys):
 @pytest.mark.parametrize("args, msg", [
     (["--world", "no_such_world"], "no such world"),
     (["--algo", "nope"], "unknown algorithm 'nope'"),
-    (["--repeats", "0"], "--repeats must be >= 1"),
+    (["--repeats", "0"], "--repeats: must be an integer >= 1, got '0'"),
+    (["--seed", "-1"], "--seed: must be an integer >= 0, got '-1'"),
+    (["--jobs", "0"], "--jobs: must be an integer >= 1"),
+    (["--draws", "-1"], "--draws: must be an integer >= 1"),
+    (["--min-coverage", "nan"], "--min-coverage: expected a finite number"),
+    (["--algo", ""], "--algo is empty"),
     (["--config", "fake_map"], "ALGO=YAML"),
     (["--noise", "nope"], "unknown noise profile 'nope'"),
     (["--world", "BAD"], "bad.yaml: walls: missing required field"),
@@ -61,3 +66,40 @@ def test_resume_with_other_arguments_is_refused(tiny, tmp_path, capsys):
     assert main(["run", "--resume", str(out), "--repeats", "2"]) == 2
     assert "other arguments" in _err_line(capsys)
     assert main(["run", "--resume", str(out), "--jobs", "1", "--no-figures"]) == 0
+
+
+@pytest.mark.parametrize("where, problem", [("file", "--out must be a folder, this is a file"),
+                                            ("under_file", "Not a directory"),
+                                            ("read_only", "Permission denied")])
+def test_out_that_cannot_be_written_fails_before_the_run(tiny, request, capsys, where, problem):
+    out = {"file": lambda: request.getfixturevalue("a_file"),
+           "under_file": lambda: request.getfixturevalue("a_file") / "run",
+           "read_only": lambda: request.getfixturevalue("read_only_dir") / "run"}[where]()
+    assert main(["run", "--world", tiny, "--algo", "fake_map", "--repeats", "1", "--jobs", "1",
+                 "--out", str(out), "--no-progress"]) == 2
+    assert _err_line(capsys).startswith(f"error: {out}: {problem}")
+
+
+def test_log_cache_that_cannot_be_made(tiny, tmp_path, a_file, monkeypatch, capsys):
+    monkeypatch.setenv("SLAM_BENCH_CACHE", str(a_file / "logs"))
+    out = tmp_path / "run"
+    assert main(["run", "--world", tiny, "--algo", "fake_map", "--repeats", "1", "--jobs", "1",
+                 "--out", str(out), "--no-progress"]) == 2
+    assert _err_line(capsys).startswith(f"error: {a_file / 'logs'}: log cache: Not a directory")
+    assert not out.exists()
+
+
+def test_ctrl_c_at_start_up(interrupted_main, capsys):
+    import bench.__main__
+    assert interrupted_main(bench.__main__, ["report", "x"]) == 130
+    assert capsys.readouterr().err == "interrupted\n"
+
+
+def test_log_cache_that_cannot_be_written(tiny, tmp_path, read_only_dir, monkeypatch, capsys):
+    """A read-only cache that must take a new log is refused before the run writes anything."""
+    monkeypatch.setenv("SLAM_BENCH_CACHE", str(read_only_dir))
+    out = tmp_path / "run"
+    assert main(["run", "--world", tiny, "--algo", "fake_map", "--repeats", "1", "--jobs", "1",
+                 "--out", str(out), "--no-progress"]) == 2
+    assert _err_line(capsys).startswith(f"error: {read_only_dir}: log cache:")
+    assert not (out / "run.json").exists()

@@ -58,7 +58,7 @@ def test_bench_run_suite_errors(tmp_path, tiny, capsys):
     assert main(["run", "--suite", str(bad), "--out", str(tmp_path / "o")]) == 2
     assert "mine.yaml: worlds[1]: no such world 'nope'" in _err_line(capsys)
     assert main(["run", "--suite", str(bad), "--draws", "0", "--out", str(tmp_path / "o")]) == 2
-    assert "--draws must be >= 1" in _err_line(capsys)
+    assert "--draws: must be an integer >= 1" in _err_line(capsys)
 
 
 def test_bench_run_suite_records_draws_and_reports_them(tmp_path, tiny, capsys):

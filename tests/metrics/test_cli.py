@@ -91,11 +91,58 @@ def test_empty_maps(maps, capsys, tmp_path):
     assert "no occupied cell" in err
 
 
-def test_bad_start_option(maps, capsys):
-    with pytest.raises(SystemExit) as e:
-        main(["score", "--map", str(maps / "est.yaml"), "--truth", str(maps / "truth.yaml"),
-              "--start", "1,2"])
-    assert e.value.code == 2
+@pytest.mark.parametrize("flag, value, msg", [
+    ("--start", "1,2", "--start: expected X,Y,YAW (3 numbers)"),
+    ("--start", "nan,0,0", "--start: expected X,Y,YAW (finite numbers)"),
+    ("--start", "0,inf,0", "--start: expected X,Y,YAW (finite numbers)"),
+    ("--start", "0,0,yaw", "--start: expected X,Y,YAW (numbers)"),
+    ("--tolerance", "-1", "--tolerance: must be an integer in 0..50, got '-1'"),
+    ("--tolerance", "1000", "--tolerance: must be an integer in 0..50, got '1000'"),
+    ("--tolerance", "1.5", "--tolerance: expected an integer, got '1.5'"),
+    ("--tau", "nan", "--tau: expected a finite number"),
+    ("--tau", "-0.01", "--tau: must be in [0, 1]"),
+    ("--occupied-thresh", "1.5", "--occupied-thresh: must be in [0, 1]"),
+    ("--picture", "x.txt", "--picture: expected a .png, .pdf or .svg file, got 'x.txt'"),
+    ("--picture", "overlay", "--picture: expected a .png, .pdf or .svg file"),
+])
+def test_bad_score_flags_fail_at_parse_time(maps, capsys, flag, value, msg):
+    code, out, err = run(capsys, ["score", "--map", maps / "est.yaml", "--truth", maps / "truth.yaml",
+                                  flag, value])
+    one_line_error(code, out, err)
+    assert err.startswith(f"error: {msg}")
+
+
+@pytest.mark.parametrize("where, problem", [("under_file", "Not a directory"),
+                                            ("read_only", "Permission denied")])
+def test_picture_that_cannot_be_written(maps, capsys, request, where, problem):
+    folder = request.getfixturevalue("a_file" if where == "under_file" else "read_only_dir")
+    pic = folder / "o.png"
+    code, out, err = run(capsys, ["score", "--map", maps / "est.yaml", "--truth", maps / "truth.yaml",
+                                  "--picture", pic])
+    one_line_error(code, out, err)
+    assert err.startswith(f"error: {pic}: {problem}")
+
+
+def test_picture_as_svg(maps, capsys, tmp_path):
+    code, out, err = run(capsys, ["score", "--map", maps / "est.yaml", "--truth", maps / "truth.yaml",
+                                  "--picture", tmp_path / "o.svg"])
+    assert code == 0, err
+    assert b"<svg" in (tmp_path / "o.svg").read_bytes()[:500]
+
+
+def test_map_with_a_nan_origin(maps, capsys, tmp_path):
+    write_map(draw(ROOM), tmp_path / "m.yaml")
+    text = (tmp_path / "m.yaml").read_text()
+    (tmp_path / "m.yaml").write_text(text.replace("origin: [-0.525,", "origin: [.nan,"))
+    code, out, err = run(capsys, ["score", "--map", tmp_path / "m.yaml", "--truth", maps / "truth.yaml"])
+    one_line_error(code, out, err)
+    assert err.startswith(f"error: {tmp_path / 'm.yaml'}: origin: expected finite numbers")
+
+
+def test_ctrl_c_at_start_up(interrupted_main, capsys):
+    import metrics.__main__
+    assert interrupted_main(metrics.__main__, ["score"]) == 130
+    assert capsys.readouterr().err == "interrupted\n"
 
 
 def test_trajectory_command(capsys, tmp_path):

@@ -181,3 +181,29 @@ def test_record_that_sees_too_little_of_the_walls_warns(tmp_path, capsys):
     assert main(["record", "--world", str(tmp_path / "big.yaml"), "--out", str(out),
                  "--min-coverage", "2"]) == 2
     assert "--min-coverage" in _error_line(capsys)
+
+
+def test_negative_seed_is_refused_at_parse_time(tmp_path, room_yaml, capsys):
+    out = tmp_path / "x.npz"
+    assert main(["record", "--world", str(room_yaml), "--seed", "-1", "--out", str(out)]) == 2
+    assert _error_line(capsys) == "error: --seed: must be an integer >= 0, got '-1'"
+    assert not out.exists()
+
+
+@pytest.mark.parametrize("where, problem", [("under_file", "Not a directory"),
+                                            ("folder", "--out must be a file, this is a folder"),
+                                            ("read_only", "Permission denied")])
+def test_out_that_cannot_be_written_fails_before_recording(tmp_path, room_yaml, request, capsys,
+                                                           where, problem):
+    out = {"under_file": lambda: request.getfixturevalue("a_file") / "log.npz",
+           "folder": lambda: tmp_path,
+           "read_only": lambda: request.getfixturevalue("read_only_dir") / "log.npz"}[where]()
+    assert main(["record", "--world", str(room_yaml), "--out", str(out)]) == 2
+    line = _error_line(capsys)
+    assert line.startswith(f"error: {out}: ") and problem in line
+
+
+def test_ctrl_c_at_start_up(interrupted_main, capsys):
+    import sim.__main__
+    assert interrupted_main(sim.__main__, ["record", "--world", "x", "--out", "x.npz"]) == 130
+    assert capsys.readouterr().err == "interrupted\n"

@@ -66,3 +66,26 @@ def test_missing_log_and_bad_nested_value(short_log, tmp_path, capsys):
     cfg.write_text("preprocess: {smooth_beams: fast}\n")
     _bad(["run", "--algo", "gn", "--log", str(short_log / "room.npz"), "--out", str(tmp_path / "o"),
           "--config", str(cfg)], capsys, "preprocess.smooth_beams")
+
+
+def test_negative_seed_is_refused_at_parse_time(short_log, tmp_path, capsys):
+    _bad(["run", "--algo", "gn", "--log", str(short_log / "room.npz"), "--out", str(tmp_path / "o"),
+          "--seed", "-1"], capsys, "error: --seed: must be an integer >= 0, got '-1'")
+    assert not (tmp_path / "o").exists()
+
+
+@pytest.mark.parametrize("where, problem", [("file", "--out must be a folder, this is a file"),
+                                            ("under_file", "Not a directory"),
+                                            ("read_only", "Permission denied")])
+def test_out_that_cannot_be_written_fails_before_the_run(short_log, request, capsys, where, problem):
+    out = {"file": lambda: request.getfixturevalue("a_file"),
+           "under_file": lambda: request.getfixturevalue("a_file") / "o",
+           "read_only": lambda: request.getfixturevalue("read_only_dir") / "o"}[where]()
+    _bad(["run", "--algo", "gn", "--log", str(short_log / "room.npz"), "--out", str(out)], capsys,
+         f"error: {out}: {problem}")
+
+
+def test_ctrl_c_at_start_up(interrupted_main, capsys):
+    import slam.__main__
+    assert interrupted_main(slam.__main__, ["list"]) == 130
+    assert capsys.readouterr().err == "interrupted\n"

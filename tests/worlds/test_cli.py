@@ -48,6 +48,8 @@ def test_show(tmp_path):
     (["show", "no_such_world"], "error: no_such_world: no such world"),
     (["render", "missing.yaml", "--out", "x"], "error: missing.yaml: file not found"),
     (["render", "rectangle_s", "--out", "x", "--resolution", "0"], "error: --resolution: must be positive"),
+    (["render", "rectangle_s", "--out", "x", "--resolution", "nan"],
+     "error: --resolution: expected a finite"),
 ])
 def test_bad_input_one_line_exit_2(argv, msg, capsys):
     assert main(argv) == 2
@@ -105,3 +107,21 @@ def test_show_and_render_a_generated_world(generated, tmp_path):
     assert png.read_bytes()[:4] == b"\x89PNG"
     assert main(["render", str(generated / "hall.yaml"), "--out", str(tmp_path)]) == 0
     assert read_map(tmp_path / "hall_s1_5x4.yaml").equals(rasterize(load_world(generated / "hall.yaml")))
+
+
+@pytest.mark.parametrize("where, problem", [("file", "--out must be a folder, this is a file"),
+                                            ("under_file", "Not a directory"),
+                                            ("read_only", "Permission denied")])
+def test_render_into_a_folder_that_cannot_be_written(request, capsys, where, problem):
+    out = {"file": lambda: request.getfixturevalue("a_file"),
+           "under_file": lambda: request.getfixturevalue("a_file") / "gt",
+           "read_only": lambda: request.getfixturevalue("read_only_dir") / "gt"}[where]()
+    assert main(["render", "rectangle_s", "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"error: {out}: {problem}") and err.count("\n") == 1
+
+
+def test_ctrl_c_at_start_up(interrupted_main, capsys):
+    import worlds.__main__
+    assert interrupted_main(worlds.__main__, ["list"]) == 130
+    assert capsys.readouterr().err == "interrupted\n"

@@ -169,7 +169,7 @@ def test_cli_writes_a_world_that_loads(tmp_path, capsys):
 @pytest.mark.parametrize("argv,msg", [
     (["generate", "office", "--seed", "0", "--size", "10by8"], "error: --size: expected WxH in metres"),
     (["generate", "ofice", "--seed", "0"], "error: kind: unknown kind 'ofice'"),
-    (["generate", "office", "--seed", "-3"], "error: seed: expected a non-negative integer, got -3"),
+    (["generate", "office", "--seed", "-3"], "error: --seed: must be an integer >= 0, got '-3'"),
     (["generate", "office", "--seed", "0", "--size", "3x3"], "error: size: 3 x 3 m is too small"),
     (["generate", "office", "--seed", "0", "--size", "0x8"], "error: size: must be positive"),
 ])
