@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from worlds.grid import Grid
+from metrics.plot import save_figure
 from bench.tables import aggregate, algo_order, world_order
 
 __all__ = ["median_row", "load_grid", "write_figures"]
@@ -70,7 +71,7 @@ def _trajectories(out_dir: Path, fig_dir: Path, world: str, medians: dict[str, d
     ax.set_aspect("equal")
     ax.legend(fontsize=7, loc="best")
     path = fig_dir / f"trajectories_{world}.png"
-    fig.savefig(path, dpi=110, bbox_inches="tight")
+    save_figure(fig, path, dpi=110, bbox_inches="tight")
     plt.close(fig)
     return path
 
@@ -101,7 +102,7 @@ def _bars(fig_dir: Path, rows: list[dict], run: dict | None) -> Path:
     axes[-1].set_xticks(x)
     axes[-1].set_xticklabels(worlds, rotation=20)
     path = fig_dir / "precision_sensitivity.png"
-    fig.savefig(path, dpi=110, bbox_inches="tight")
+    save_figure(fig, path, dpi=110, bbox_inches="tight")
     plt.close(fig)
     return path
 

@@ -188,7 +188,8 @@ def _write_run_json(out_dir: Path, spec: RunSpec, world_map: dict, world_files: 
         "versions": versions(),
         "worlds": {k: {"name": w.name, "file": str(world_files[k] or "")}
                    for k, w in world_map.items()},
-        "configs": {a: config_dict(a, spec.configs.get(a), spec.overrides.get(a)) for a in spec.algos},
+        "configs": {a: config_dict(a, spec.configs.get(a), spec.overrides.get(a))
+                    for a in spec.algos},
     })
     if resumed_from is not None:
         data.setdefault("resumed", []).append({
@@ -239,7 +240,8 @@ def _run_locked(spec: RunSpec, out_dir: Path, jobs, scheduler, resume, progress,
         truth = worlds.rasterize(w)
         infos[key] = WorldInfo(key, truth, tuple(float(v) for v in w.bounds), str(w.source or ""))
         _save_truth(out_dir, key, w, truth)
-    configs = {a: load_config_checked(a, spec.configs.get(a), spec.overrides.get(a)) for a in spec.algos}
+    configs = {a: load_config_checked(a, spec.configs.get(a), spec.overrides.get(a))
+               for a in spec.algos}
     from slam import registry
     algo_classes = {a: registry.get(a) for a in spec.algos}
 
@@ -248,7 +250,8 @@ def _run_locked(spec: RunSpec, out_dir: Path, jobs, scheduler, resume, progress,
     given = {}
     if spec.logs:
         from bench.plan import read_log_set
-        given = {(key_of[world], seed): Path(path) for path, world, seed, _ in read_log_set(",".join(spec.logs))}
+        given = {(key_of[world], seed): Path(path)
+                 for path, world, seed, _ in read_log_set(",".join(spec.logs))}
     all_tasks = make_tasks(spec, list(world_map), list(given) if spec.logs else None)
     todo = [t for t in all_tasks if t.key not in store]
     by_log: dict[tuple[str, int], list[Task]] = {}
@@ -318,7 +321,8 @@ def _run_locked(spec: RunSpec, out_dir: Path, jobs, scheduler, resume, progress,
     try:
         for lkey in by_log:
             key, seed = lkey
-            path = given.get(lkey) or cache.log_path(world_map[key], seed, spec.noise, world_files[key])
+            path = given.get(lkey) or cache.log_path(world_map[key], seed, spec.noise,
+                                                     world_files[key])
             if path.exists():
                 log_ready(lkey, path)
             else:

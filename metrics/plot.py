@@ -5,14 +5,16 @@ TP green, FP red, FN yellow; cells the estimate knows as free light grey, everyt
 """
 from __future__ import annotations
 
+import io
 import os
 
 import numpy as np
 
 from worlds.grid import FREE_THRESH
+from worlds.yamlio import atomic_write_bytes
 
 __all__ = ["COLOURS", "PICTURE_FORMATS", "overlay_rgb", "plot_overlay", "save_overlay",
-           "plot_surface", "save_surface"]
+           "save_figure", "plot_surface", "save_surface"]
 
 # the file types save_overlay and save_surface write (by the path's suffix)
 PICTURE_FORMATS = ("png", "pdf", "svg")
@@ -88,8 +90,7 @@ def save_overlay(overlay, path: str | os.PathLike, title: str = "") -> None:
     ax = fig.add_subplot(1, 1, 1)
     plot_overlay(ax, overlay, title)
     fig.tight_layout()
-    os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
-    fig.savefig(path)
+    save_figure(fig, path)
 
 
 def plot_surface(ax, surface, title: str = "") -> None:
@@ -150,5 +151,13 @@ def save_surface(surface, path: str | os.PathLike, title: str = "") -> None:
     FigureCanvasAgg(fig)
     plot_surface(fig.add_subplot(1, 1, 1), surface, title)
     fig.tight_layout()
-    os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
-    fig.savefig(path, bbox_inches="tight")   # the legend sits outside the axes
+    save_figure(fig, path, bbox_inches="tight")   # the legend sits outside the axes
+
+
+def save_figure(fig, path, **savefig_kw) -> None:
+    """Write a matplotlib figure atomically (a unique temporary file, then a rename): a kill
+    never leaves half a picture. The format follows the file's suffix."""
+    buf = io.BytesIO()
+    fmt = os.path.splitext(str(path))[1].lstrip(".").lower() or "png"
+    fig.savefig(buf, format=fmt, **savefig_kw)
+    atomic_write_bytes(path, buf.getvalue())

@@ -35,7 +35,8 @@ def max_grid_cells() -> int:
 
 
 def max_route_cells() -> int:
-    """The largest free space the route planner takes on (SLAM_BENCH_MAX_ROUTE_CELLS, default 4 million)."""
+    """The largest free space the route planner takes on, in cells (SLAM_BENCH_MAX_ROUTE_CELLS,
+    default 4 million)."""
     return _limit("SLAM_BENCH_MAX_ROUTE_CELLS", 4_000_000)
 
 
