@@ -1,4 +1,4 @@
-"""Command line: python -m sim record | show | import  (see --help of each).
+"""Command line: python -m sim record | show | import | export  (see --help of each).
 
 Exit codes: 0 done; 2 bad input (one line on stderr); 3 (`record`) the log was written but
 cannot be trusted: the robot got stuck, the time limit ran out, or the log saw too little of
@@ -34,11 +34,19 @@ def build_parser() -> argparse.ArgumentParser:
     s = sub.add_parser("show", help="draw the true and odometry paths of a log over its world")
     s.add_argument("log")
     s.add_argument("--out", default=None, help="PNG file (default: LOG with .png)")
-    i = sub.add_parser("import", help="convert a real robot log (CARMEN, gfs) to a sensor log")
-    i.add_argument("file")
+    i = sub.add_parser("import", help="convert a robot log (CARMEN, gfs, ROS 1 bag, ROS 2 bag, "
+                                      "MCAP) to a sensor log")
+    i.add_argument("file", help="log file, .bag, .mcap, or a ROS 2 bag folder")
     i.add_argument("--out", required=True, help="output .npz")
     i.add_argument("--format", choices=["carmen", "gfs"], default=None,
-                   help="input format (default: guessed from the file)")
+                   help="text log format (default: guessed from the file)")
+    i.add_argument("--scan-topic", help="bags: LaserScan or MultiEchoLaserScan topic (default /scan)")
+    i.add_argument("--odom-topic", help="bags: nav_msgs/Odometry topic (default /odom, else /tf)")
+    i.add_argument("--imu-topic", help="bags: sensor_msgs/Imu topic (default /imu)")
+    e = sub.add_parser("export", help="write a sensor log as a ROS bag (needs pip install .[ros])")
+    e.add_argument("log", help="sensor log (.npz)")
+    e.add_argument("--format", required=True, choices=["ros1", "ros2", "mcap"])
+    e.add_argument("--out", required=True, help="ros1: a .bag file; ros2, mcap: a bag folder")
     return p
 
 
@@ -86,18 +94,56 @@ def cmd_show(args) -> int:
     return 0
 
 
+def _is_bag(path: Path) -> bool:
+    return path.suffix in (".bag", ".mcap", ".db3") or (path.is_dir() and (path / "metadata.yaml").exists())
+
+
 def cmd_import(args) -> int:
     from sim.importers import import_log
     from sim.log import write_log
     check_out_file(args.out)
-    log = import_log(args.file, fmt=args.format)
+    if _is_bag(Path(args.file)):
+        from sim.rosbag import import_bag
+        log = import_bag(args.file, args.scan_topic, args.odom_topic, args.imu_topic)
+    else:
+        log = import_log(args.file, fmt=args.format)
     write_log(log, args.out)
     print(f"{args.out}: {log.n_scans} scans, {log.duration:.1f} s")
     return 0
 
 
+def cmd_export(args) -> int:
+    from sim.log import read_log
+    from sim.rosbag import export_bag
+    out = Path(args.out)
+    if out.exists():
+        raise InputError(f"{out}: exists already (a bag is never overwritten)")
+    log = read_log(args.log)
+    export_bag(log, out, args.format)
+    maps = _write_true_map(log, out)
+    print(f"{out}: {log.n_scans} scans, {log.duration:.1f} s" + (f"; true map {maps}" if maps else ""))
+    return 0
+
+
+def _write_true_map(log, out: Path) -> str:
+    """The world's true map beside the bag (`<bag>_map.yaml` + .pgm), when the log's world is
+    known; the YAML path written, or '' for a log without a world."""
+    from worlds import rasterize, write_map
+    for ref in (log.meta.get("world_source"), log.meta.get("world")):
+        if not ref:
+            continue
+        try:
+            world = _load_world(ref)
+        except (InputError, ImportError, OSError):
+            continue
+        path = out.with_name(f"{out.stem}_map.yaml")
+        write_map(rasterize(world), path)
+        return str(path)
+    return ""
+
+
 def main(argv: list[str] | None = None) -> int:
-    commands = {"record": cmd_record, "show": cmd_show, "import": cmd_import}
+    commands = {"record": cmd_record, "show": cmd_show, "import": cmd_import, "export": cmd_export}
     return run_cli(build_parser, lambda args: commands[args.command](args), argv)
 
 
