@@ -3,6 +3,7 @@
 Python API (each is what a `python -m bench` command calls):
   run_benchmark(RunSpec(...), out_dir, jobs=None, scheduler=None, resume=False) -> RunOutcome
   write_report(out_dir) -> Path of summary.md
+  add_outside(out_dir, world, algo, map_yaml, trajectory=None, draw=0) -> row (bench.add)
   regress(baseline=None, update=False, ...) -> exit code
 """
 from bench.plan import RunSpec, Task

@@ -1,4 +1,4 @@
-"""python -m bench run | report | regress  (a thin CLI over bench's Python API)."""
+"""python -m bench run | report | add | regress  (a thin CLI over bench's Python API)."""
 from __future__ import annotations
 
 import argparse
@@ -50,6 +50,20 @@ def build_parser() -> argparse.ArgumentParser:
     rep = sub.add_parser("report", help="rebuild summary.md/.csv and figures from results.json")
     rep.add_argument("dir")
     rep.add_argument("--no-figures", action="store_true")
+
+    a = sub.add_parser("add", help="score a map (and trajectory) made elsewhere, e.g. by a ROS "
+                                   "SLAM, into a run's results and report")
+    a.add_argument("dir", metavar="RUN_DIR", help="a bench run folder (run.json, results.json)")
+    a.add_argument("--world", required=True, metavar="W", help="one of the run's worlds, as its rows name it")
+    a.add_argument("--algo", required=True, metavar="NAME",
+                   help="the outside algorithm's name, not one of the run's (e.g. slam_toolbox)")
+    a.add_argument("--map", required=True, metavar="MAP.yaml",
+                   help="its map: a map_server YAML with a PGM or PNG image")
+    a.add_argument("--trajectory", metavar="T.tum",
+                   help="its TUM trajectory, scored against the true path of the draw's log")
+    a.add_argument("--draw", type=non_negative_int, default=0, metavar="K",
+                   help="the noise draw whose log it ran on (default 0)")
+    a.add_argument("--no-figures", action="store_true", help="rebuild the tables only")
 
     g = sub.add_parser("regress", help="rerun a small fixed matrix and compare with a baseline")
     g.add_argument("--baseline", help="baseline JSON (default: bench/baseline.json)")
@@ -145,6 +159,19 @@ def cmd_report(args) -> int:
     return 0
 
 
+def cmd_add(args) -> int:
+    from bench.add import add_outside
+    row = add_outside(args.dir, args.world, args.algo, args.map, args.trajectory, args.draw,
+                      figures=not args.no_figures)
+    def num(key):
+        return "–" if row.get(key) is None else f"{row[key]:.3f}"
+    traj = f", ATE {num('ate_m')} m" if args.trajectory else ""
+    print(f"{row['world']}/{row['algo']}/{row['repeat']}: precision {num('precision')}, "
+          f"sensitivity {num('sensitivity')}{traj}")
+    print(f"report: {Path(args.dir) / 'summary.md'}")
+    return 0
+
+
 def cmd_regress(args) -> int:
     from bench.plan import parse_worlds, resolve_algos
     from bench.regress import regress
@@ -156,7 +183,8 @@ def cmd_regress(args) -> int:
 
 def main(argv: list[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
-    commands = {"run": lambda args: cmd_run(args, argv), "report": cmd_report, "regress": cmd_regress}
+    commands = {"run": lambda args: cmd_run(args, argv), "report": cmd_report, "add": cmd_add,
+                "regress": cmd_regress}
     return run_cli(build_parser, lambda args: commands[args.command](args), argv)
 
 

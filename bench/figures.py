@@ -64,6 +64,8 @@ def _trajectories(out_dir: Path, fig_dir: Path, world: str, medians: dict[str, d
     for algo, row in medians.items():
         with np.load(out_dir / row["map_file"]) as z:
             p = z["poses"]
+        if len(p) == 0:
+            continue  # an outside map added without its trajectory
         ax.plot(p[:, 0], p[:, 1], lw=1.0, label=f"{algo} (repeat {row['repeat']})")
     ax.set_title(f"{world}: trajectories of the median runs")
     ax.set_xlabel("x (m)")

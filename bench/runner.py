@@ -35,7 +35,7 @@ from bench.results import RESULTS_NAME, RUN_NAME, ResultStore, jsonable
 from bench.task import WorldInfo, compile_algorithm, execute, new_row, record_log, versions
 
 __all__ = ["run_benchmark", "RunOutcome", "load_worlds", "default_out_dir", "read_run",
-           "map_path", "truth_path", "run_lock", "LOCK_NAME"]
+           "map_path", "truth_path", "run_lock", "write_npz", "LOCK_NAME"]
 
 LOCK_NAME = ".lock"   # held (flock) by the run writing into the folder; holds its pid
 
@@ -131,7 +131,7 @@ def _check_cache_writable(spec: RunSpec, world_map: dict, world_files: dict) -> 
                          "folder that can be written)") from None
 
 
-def _write_npz(path: Path, **arrays) -> None:
+def write_npz(path: Path, **arrays) -> None:
     """A compressed .npz written atomically under a unique temporary name."""
     buf = io.BytesIO()
     np.savez_compressed(buf, **{k: np.asarray(v) for k, v in arrays.items()})
@@ -139,22 +139,22 @@ def _write_npz(path: Path, **arrays) -> None:
 
 
 def _save_truth(out_dir: Path, key: str, world, truth) -> None:
-    _write_npz(truth_path(out_dir, key), prob=truth.prob, resolution=truth.resolution,
-               origin=truth.origin, bounds=np.asarray(world.bounds, dtype=np.float64))
+    write_npz(truth_path(out_dir, key), prob=truth.prob, resolution=truth.resolution,
+              origin=truth.origin, bounds=np.asarray(world.bounds, dtype=np.float64))
 
 
 def _save_gt(out_dir: Path, key: str, seed: int, log) -> None:
     """True trajectory of the log (for the trajectory figure), once per world and log seed."""
     p = Path(out_dir) / "maps" / key / f"gt_s{int(seed)}.npz"
     if not p.exists() and log is not None and log.has_ground_truth:
-        _write_npz(p, times=log.gt_t, poses=log.gt_pose)
+        write_npz(p, times=log.gt_t, poses=log.gt_pose)
 
 
 def _save_arrays(out_dir: Path, task: Task, arrays: dict | None) -> str | None:
     if arrays is None:
         return None
     p = map_path(out_dir, task.world, task.algo, task.repeat)
-    _write_npz(p, **arrays)
+    write_npz(p, **arrays)
     return str(p.relative_to(out_dir))
 
 
@@ -261,6 +261,8 @@ def _run_locked(spec: RunSpec, out_dir: Path, jobs, scheduler, resume, progress,
     bar = Progress(len(todo), already=len(all_tasks) - len(todo), stream=stream, enabled=progress)
     outcome = RunOutcome(out_dir, len(all_tasks), 0, 0)
     for row in store.rows.values():
+        if row.get("source") == "outside":
+            continue  # added by `bench add`, not a task of this run
         if row.get("status") == "ok":
             outcome.ok += 1
         else:

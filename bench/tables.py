@@ -263,6 +263,9 @@ def summary_markdown(rows: list[dict], run: dict | None = None,
     if vers:
         out.append("Versions: " + ", ".join(f"{k} {v}" for k, v in vers.items()) + ".")
     ceiling = " The oracle maps with the true poses: the ceiling." if "oracle" in algos else ""
+    outside = sorted({r["algo"] for r in rows if r.get("source") == "outside"})
+    if outside:
+        out.append(f"Scored from maps made elsewhere (`bench add`): {', '.join(outside)}.")
     out += [f"Rows: {len(rows)} ({len(rows) - n_ok} failed). Cells: mean ± std over the repeats "
             f"that succeeded (sample std).{ceiling}", ""]
     if draws > 1 or any(int(r.get("draw", 0)) > 0 for r in rows):

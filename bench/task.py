@@ -22,7 +22,7 @@ import numpy as np
 from worlds.grid import Grid
 
 __all__ = ["WorldInfo", "execute", "record_log", "versions", "DIVERGE_MARGIN_M", "TOLERANCES",
-           "check_divergence", "new_row"]
+           "check_divergence", "new_row", "score_trajectory"]
 
 # a pose this far outside the world's solid geometry cannot be a working SLAM
 DIVERGE_MARGIN_M = 2.0
@@ -163,12 +163,18 @@ def _score(grid: Grid, truth: Grid) -> dict:
     return out
 
 
-def _trajectory_scores(result, log) -> dict:
-    """Every registered trajectory metric of `result` against the log's true path."""
+def score_trajectory(times: np.ndarray, poses: np.ndarray, gt_t: np.ndarray,
+                     gt_pose: np.ndarray) -> dict:
+    """Every registered trajectory metric of (N,) times, (N, 3) poses against the true
+    (M,) times, (M, 3) poses."""
     from metrics import registry
     from metrics.trajectory import TrajectoryContext
-    ctx = TrajectoryContext(result.times, result.poses, log.gt_t, log.gt_pose)
-    return _scalars(registry.compute("trajectory", ctx))
+    return _scalars(registry.compute("trajectory", TrajectoryContext(times, poses, gt_t, gt_pose)))
+
+
+def _trajectory_scores(result, log) -> dict:
+    """Every registered trajectory metric of `result` against the log's true path."""
+    return score_trajectory(result.times, result.poses, log.gt_t, log.gt_pose)
 
 
 def _run_keys() -> list[str]:

@@ -1,5 +1,6 @@
 """Command line: python -m worlds list [PATH ...] | show NAME|FILE [--out PNG] |
-render NAME|FILE --out DIR | generate KIND --seed S [--size WxH] --out FILE.yaml."""
+render NAME|FILE --out DIR [--image-format pgm|png] |
+generate KIND --seed S [--size WxH] --out FILE.yaml."""
 from __future__ import annotations
 
 import argparse
@@ -21,11 +22,15 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--out", help="PNG path (default: NAME.png in the current folder)")
     s.add_argument("--planned", action="store_true",
                    help="draw the planned covering route even if the world gives one")
-    r = sub.add_parser("render", help="write the ground-truth map pair DIR/NAME.yaml + DIR/NAME.pgm")
+    r = sub.add_parser("render", help="write the ground-truth map pair DIR/NAME.yaml + DIR/NAME.pgm "
+                                      "(or .png)")
     r.add_argument("world", help="a shipped world name or a path to a world .yaml")
     r.add_argument("--out", required=True, help="output folder")
     r.add_argument("--resolution", type=positive_float, default=None,
                    help="cell size in m, > 0 (default: the world's)")
+    r.add_argument("--image-format", choices=["pgm", "png"], default="pgm",
+                   help="the map image: DIR/NAME.pgm (default) or DIR/NAME.png (8-bit grey, "
+                        "as Nav2 reads)")
     r.add_argument("--png", action="store_true", help="also write DIR/NAME.png for people")
     g = sub.add_parser("generate", help="write a procedurally drawn world (same arguments, same file)")
     g.add_argument("kind", help="office | warehouse | hall | loop")
@@ -84,20 +89,25 @@ def cmd_show(world_arg: str, out: str | None, planned: bool = False) -> Path:
     return path
 
 
-def cmd_render(world_arg: str, out: str, resolution: float | None = None, png: bool = False) -> Path:
-    """Write DIR/NAME.yaml + DIR/NAME.pgm (the ground truth); returns the YAML path."""
+def cmd_render(world_arg: str, out: str, resolution: float | None = None, png: bool = False,
+               image_format: str = "pgm") -> tuple[Path, Path]:
+    """Write DIR/NAME.yaml + DIR/NAME.pgm or .png (the ground truth), and with `png` a picture
+    DIR/NAME.png; returns the YAML and map image paths."""
     from worlds.load import load_world
     from worlds.mapio import write_map
     from worlds.raster import rasterize
+    if png and image_format == "png":
+        raise InputError("--png draws DIR/NAME.png, the map image of --image-format png; "
+                         "give one of them")
     d = check_out_dir(out)
     w = load_world(world_arg)
     grid = rasterize(w, resolution)
     yp = d / f"{w.name}.yaml"
-    write_map(grid, yp)
+    image = write_map(grid, yp, image_format)
     if png:
         from worlds.plot import save_map_png
         save_map_png(grid, d / f"{w.name}.png", title=f"{w.name}: ground truth")
-    return yp
+    return yp, image
 
 
 def cmd_generate(kind: str, seed: int, size: str | None, out: str) -> tuple[Path, str]:
@@ -130,8 +140,8 @@ def _dispatch(args) -> None:
     elif args.command == "show":
         print(cmd_show(args.world, args.out, args.planned))
     else:
-        yp = cmd_render(args.world, args.out, args.resolution, args.png)
-        print(f"{yp} + {yp.with_suffix('.pgm').name}")
+        yp, image = cmd_render(args.world, args.out, args.resolution, args.png, args.image_format)
+        print(f"{yp} + {image.name}")
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -1,20 +1,26 @@
-"""ROS map_server map files: a YAML description beside a PGM image.
+"""ROS map_server map files: a YAML description beside a PGM or PNG image.
 
 Reading follows map_server's image loader (ROS 1 `map_server`, ROS 2 `nav2_map_server`):
-  - a pixel's value v (0..255; P2/P5 with another maxval are scaled to 0..255);
+  - a pixel's value v (0..255; P2/P5 with another maxval are scaled to 0..255; a PNG's
+    colour channels averaged, worlds.pngio);
+  - a PNG with alpha: in `mode: trinary` the alpha is averaged in, v = (R + G + B + A) / 4,
+    in `mode: scale` a pixel that is not opaque is unknown (Nav2 map_saver's scale PNGs);
   - `negate: 1` replaces v by 255 - v;
   - p = (255 - v) / 255, the probability that the cell is occupied;
   - `mode: trinary` (the default): occupied if p > occupied_thresh, free if p < free_thresh
     (strict comparisons), unknown otherwise -> Grid prob 1.0 / 0.0 / NaN;
   - `mode: scale`: as trinary at both ends, in between p is mapped linearly to
     0.99 * (p - free_thresh) / (occupied_thresh - free_thresh) (map_server's 0..99 scale);
-  - `mode: raw`: v itself is the occupancy in percent (0..100); other values are unknown.
-The bottom image row is grid row 0 (images are stored top row first).
+  - `mode: raw`: v (rounded) itself is the occupancy in percent (0..100); other values are
+    unknown.
+The image is a PNG when its name ends in .png, else a PGM. The bottom image row is grid
+row 0 (images are stored top row first).
 
 Writing follows map_saver: 254 where p <= free_thresh (free), 0 where p >= occupied_thresh
 (occupied), 205 everywhere else including unknown, thresholds 0.65 / 0.196, `negate: 0`,
-`mode: trinary`, a binary P5 PGM named NAME.pgm beside NAME.yaml and referenced relatively.
-A trinary grid (values 1.0, 0.0, NaN) written and read back is identical.
+`mode: trinary`, a binary P5 PGM (or an 8-bit grey PNG) named NAME.pgm (NAME.png) beside
+NAME.yaml and referenced relatively. A trinary grid (values 1.0, 0.0, NaN) written and read
+back is identical.
 """
 from __future__ import annotations
 
@@ -85,7 +91,7 @@ def read_pgm(path: str | os.PathLike) -> np.ndarray:
     magic = data[:2]
     if magic not in (b"P5", b"P2"):
         raise InputError(f"{p}: not a PGM image (expected magic P5 or P2, got {magic!r}); "
-                         "only PGM map images are supported")
+                         "map images are PGM or PNG (named .png)")
     (width, height, maxval), pos = _pgm_tokens(data, 3, str(p))
     if width <= 0 or height <= 0 or not (0 < maxval < 65536):
         raise InputError(f"{p}: bad PGM header (width {width}, height {height}, maxval {maxval})")
@@ -183,11 +189,19 @@ def read_map(yaml_path: str | os.PathLike) -> Grid:
     image = Path(meta["image"])
     if not image.is_absolute():
         image = Path(yaml_path).parent / image
-    pix = read_pgm(image)
+    alpha = None
+    if image.suffix.lower() == ".png":
+        from worlds.pngio import read_png
+        pix, alpha = read_png(image)
+        if alpha is not None and mode == "trinary":
+            pix = (3.0 * pix + alpha) / 4.0
+    else:
+        pix = read_pgm(image)
     if negate:
         pix = 255.0 - pix
     prob = np.full(pix.shape, np.nan)
     if mode == "raw":
+        pix = np.rint(pix)
         ok = pix <= 100
         prob[ok] = pix[ok] / 100.0
     else:
@@ -199,6 +213,8 @@ def read_map(yaml_path: str | os.PathLike) -> Grid:
         if mode == "scale" and occ_th > free_th:
             mid = ~occ & ~free
             prob[mid] = 0.99 * (p[mid] - free_th) / (occ_th - free_th)
+        if mode == "scale" and alpha is not None:
+            prob[alpha < 255] = np.nan
         if (255.0 - PIXEL_UNKNOWN) / 255.0 < free_th:
             warnings.warn(f"{where}: free_thresh {free_th} reads the unknown value {PIXEL_UNKNOWN} "
                           f"as free (map_saver's unknown is p = {50 / 255:.4f}); "
@@ -220,21 +236,29 @@ def grid_to_pixels(grid: Grid, occupied_thresh: float = SAVE_OCCUPIED_THRESH,
     return pix[::-1].copy()
 
 
-def write_map(grid: Grid, yaml_path: str | os.PathLike) -> None:
-    """Write `grid` as a map_saver pair: YAML at yaml_path and the PGM beside it (same stem).
+def write_map(grid: Grid, yaml_path: str | os.PathLike, image_format: str = "pgm") -> Path:
+    """Write `grid` as a map_saver pair: YAML at yaml_path and the image beside it (same stem).
 
-    Cells with p >= 0.65 are written occupied (0), p <= 0.196 free (254), the rest and
-    NaN unknown (205). Both files are written atomically.
+    image_format: "pgm" (binary P5, as ROS 1 map_saver) or "png" (8-bit grey, which Nav2
+    reads too). Cells with p >= 0.65 are written occupied (0), p <= 0.196 free (254), the
+    rest and NaN unknown (205). Both files are written atomically; returns the image path.
     """
     yp = Path(yaml_path)
     if yp.suffix.lower() not in (".yaml", ".yml"):
         raise InputError(f"{yp}: a map description must end in .yaml")
-    pgm = yp.with_suffix(".pgm")
+    if image_format not in ("pgm", "png"):
+        raise InputError(f"image format: expected pgm or png, got {image_format!r}")
+    image = yp.with_suffix(f".{image_format}")
     pix = grid_to_pixels(grid)
-    atomic_write_bytes(pgm, encode_pgm(pix, comment=f"{grid.cols} x {grid.rows} map, "
-                                                    f"resolution {grid.resolution} m"))
+    if image_format == "png":
+        from worlds.pngio import encode_png
+        data = encode_png(pix)
+    else:
+        data = encode_pgm(pix, comment=f"{grid.cols} x {grid.rows} map, "
+                                       f"resolution {grid.resolution} m")
+    atomic_write_bytes(image, data)
     meta = {
-        "image": pgm.name,
+        "image": image.name,
         "mode": "trinary",
         "resolution": float(grid.resolution),
         "origin": [float(v) for v in grid.origin],
@@ -243,3 +267,4 @@ def write_map(grid: Grid, yaml_path: str | os.PathLike) -> None:
         "free_thresh": SAVE_FREE_THRESH,
     }
     atomic_write_text(yp, yaml.safe_dump(meta, sort_keys=False, default_flow_style=None))
+    return image

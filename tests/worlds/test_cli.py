@@ -35,6 +35,16 @@ def test_render_a_file_with_resolution_and_png(tmp_path):
     assert (tmp_path / "worlds_obstacles.png").stat().st_size > 1000
 
 
+def test_render_png_map_image(tmp_path, capsys):
+    assert main(["render", "swirl_s", "--out", str(tmp_path), "--image-format", "png"]) == 0
+    assert capsys.readouterr().out.strip().endswith("swirl_s.yaml + swirl_s.png")
+    assert not (tmp_path / "swirl_s.pgm").exists()
+    assert read_map(tmp_path / "swirl_s.yaml").equals(rasterize(load_world("swirl_s")))
+    assert main(["render", "swirl_s", "--out", str(tmp_path), "--image-format", "png", "--png"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--png draws DIR/NAME.png" in err[0]
+
+
 def test_show(tmp_path):
     out = tmp_path / "s.png"
     assert main(["show", "rectangle_s", "--out", str(out)]) == 0

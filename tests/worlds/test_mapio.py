@@ -1,9 +1,11 @@
-"""ROS map_server files: round trips, hand-made map_saver files, ASCII PGM, negate, modes, errors."""
+"""ROS map_server files: round trips, hand-made map_saver files, ASCII PGM, PNG, negate,
+modes, errors."""
 import warnings
 
 import numpy as np
 import pytest
 import yaml
+from PIL import Image
 
 from worlds.grid import Grid
 from worlds.mapio import encode_pgm, grid_to_pixels, read_map, read_pgm, write_map
@@ -196,3 +198,111 @@ def test_encode_pgm_header():
 def test_grid_to_pixels_thresholds():
     g = Grid(np.array([[0.196, 0.197, 0.649, 0.65, np.nan]]))
     assert list(grid_to_pixels(g)[0]) == [254, 205, 205, 0, 205]
+
+
+# --- PNG ---------------------------------------------------------------------------------
+
+def _write_png_pair(tmp_path, pixels, yaml_text, mode=None, name="p", **save):
+    arr = np.asarray(pixels, dtype=np.uint8)
+    img = Image.fromarray(arr)
+    if mode and img.mode != mode:
+        img = img.convert(mode)
+    img.save(tmp_path / f"{name}.png", **save)
+    (tmp_path / f"{name}.yaml").write_text(yaml_text.replace("image: map.pgm", f"image: {name}.png"))
+    return tmp_path / f"{name}.yaml"
+
+
+@pytest.mark.parametrize("rows,cols,origin,res", [(1, 1, (0.0, 0.0, 0.0), 0.05),
+                                                  (7, 13, (-3.35, -0.15, 0.25), 0.05)])
+def test_pgm_and_png_of_the_same_map_read_back_identically(tmp_path, rng, rows, cols, origin, res):
+    g = Grid(_trinary(rng, rows, cols), res, np.array(origin))
+    assert write_map(g, tmp_path / "a.yaml") == tmp_path / "a.pgm"
+    assert write_map(g, tmp_path / "b.yaml", image_format="png") == tmp_path / "b.png"
+    assert yaml.safe_load((tmp_path / "b.yaml").read_text())["image"] == "b.png"
+    with Image.open(tmp_path / "b.png") as img:
+        assert (img.format, img.mode, img.size) == ("PNG", "L", (cols, rows))
+    a, b = read_map(tmp_path / "a.yaml"), read_map(tmp_path / "b.yaml")
+    assert a.equals(g) and b.equals(g)
+    np.testing.assert_array_equal(a.prob, b.prob)
+
+
+@pytest.mark.parametrize("mode", ["L", "RGB", "RGBA", "P", "LA"])
+def test_hand_made_png_reads_as_the_pgm(tmp_path, mode):
+    pixels = [[205, 205, 0, 0], [254, 254, 254, 0], [0, 254, 128, 254]]
+    # an opaque alpha counts in trinary mode (test_scale_mode_png_as_nav2_writes_it)
+    yaml_text = MAP_SAVER_YAML + ("mode: scale\n" if mode in ("RGBA", "LA") else "")
+    png = read_map(_write_png_pair(tmp_path, pixels, yaml_text, mode))
+    pgm = read_map(_write_pair(tmp_path, pixels, yaml_text))
+    np.testing.assert_array_equal(png.prob, pgm.prob)
+    np.testing.assert_array_equal(png.origin, [-10.0, -5.5, 0.0])
+
+
+def test_png_negate_and_raw(tmp_path):
+    text = MAP_SAVER_YAML.replace("negate: 0", "negate: 1")
+    g = read_map(_write_png_pair(tmp_path, [[255, 1, 50]], text))
+    np.testing.assert_array_equal(g.prob, [[1.0, 0.0, np.nan]])
+    g = read_map(_write_png_pair(tmp_path, [[0, 100, 65, 255]], MAP_SAVER_YAML + "mode: raw\n",
+                                 name="r"))
+    np.testing.assert_array_equal(g.prob, [[0.0, 1.0, 0.65, np.nan]])
+
+
+def test_scale_mode_png_as_nav2_writes_it(tmp_path):
+    # Nav2 map_saver in scale mode: RGBA, grey (100 - occupancy) / 100, unknown transparent
+    grey = np.array([[0, 254, 128, 0]], dtype=np.uint8)
+    alpha = np.array([[255, 255, 255, 0]], dtype=np.uint8)
+    rgba = np.stack([grey, grey, grey, alpha], axis=-1)
+    Image.fromarray(rgba, "RGBA").save(tmp_path / "s.png")
+    (tmp_path / "s.yaml").write_text(MAP_SAVER_YAML.replace("map.pgm", "s.png") + "mode: scale\n")
+    g = read_map(tmp_path / "s.yaml")
+    p = (255 - 128) / 255
+    np.testing.assert_allclose(g.prob, [[1.0, 0.0, 0.99 * (p - 0.196) / (0.65 - 0.196), np.nan]])
+    # trinary mode averages the alpha in, as map_server does: opaque 205 reads (3*205+255)/4
+    (tmp_path / "t.yaml").write_text(MAP_SAVER_YAML.replace("map.pgm", "s.png"))
+    np.testing.assert_array_equal(read_map(tmp_path / "t.yaml").prob, [[1.0, 0.0, np.nan, 1.0]])
+
+
+def test_broken_png(tmp_path):
+    Image.fromarray(np.zeros((40, 40), dtype=np.uint8)).save(tmp_path / "map.png")
+    data = (tmp_path / "map.png").read_bytes()
+    (tmp_path / "map.png").write_bytes(data[:-30])
+    (tmp_path / "m.yaml").write_text(MAP_SAVER_YAML.replace("map.pgm", "map.png"))
+    with pytest.raises(InputError, match=r"/map\.png: broken PNG image") as err:
+        read_map(tmp_path / "m.yaml")
+    assert "\n" not in str(err.value)
+
+
+def test_non_image_named_png(tmp_path):
+    (tmp_path / "map.png").write_text("resolution: 0.05\n")
+    (tmp_path / "m.yaml").write_text(MAP_SAVER_YAML.replace("map.pgm", "map.png"))
+    with pytest.raises(InputError, match=r"/map\.png: not an image \(Pillow cannot identify it\)"):
+        read_map(tmp_path / "m.yaml")
+    (tmp_path / "map.png").write_bytes(encode_pgm(np.zeros((2, 2))))
+    with pytest.raises(InputError, match=r"/map\.png: not a PNG image \(Pillow reads it as PPM\)"):
+        read_map(tmp_path / "m.yaml")
+
+
+def test_missing_png(tmp_path):
+    (tmp_path / "m.yaml").write_text(MAP_SAVER_YAML.replace("map.pgm", "map.png"))
+    with pytest.raises(InputError, match=r"/map\.png: image file not found"):
+        read_map(tmp_path / "m.yaml")
+
+
+def test_16_bit_png_refused(tmp_path):
+    Image.fromarray(np.array([[0, 65535]], dtype=np.uint16)).save(tmp_path / "map.png")
+    (tmp_path / "m.yaml").write_text(MAP_SAVER_YAML.replace("map.pgm", "map.png"))
+    with pytest.raises(InputError, match=r"/map\.png: unsupported PNG pixel mode I;16"):
+        read_map(tmp_path / "m.yaml")
+
+
+def test_png_size_checked_before_decoding(tmp_path, monkeypatch):
+    Image.fromarray(np.zeros((30, 40), dtype=np.uint8)).save(tmp_path / "map.png")
+    (tmp_path / "m.yaml").write_text(MAP_SAVER_YAML.replace("map.pgm", "map.png"))
+    monkeypatch.setenv("SLAM_BENCH_MAX_CELLS", "1000")
+    monkeypatch.setattr(Image.Image, "load", lambda self: pytest.fail("decoded before the check"))
+    with pytest.raises(InputError, match=r"/map\.png: a 40 x 30 image needs a grid of 30 x 40 cells"):
+        read_map(tmp_path / "m.yaml")
+
+
+def test_write_map_bad_image_format(tmp_path):
+    with pytest.raises(InputError, match="expected pgm or png, got 'jpg'"):
+        write_map(Grid(np.zeros((2, 2))), tmp_path / "m.yaml", image_format="jpg")

@@ -1,0 +1,179 @@
+"""python -m bench add: a map made elsewhere (here: the oracle's, saved as map_server files)
+joins a run's results and report beside the run's own algorithms; bad input is one line."""
+import json
+import shutil
+
+import numpy as np
+import pytest
+
+from bench.__main__ import main
+from bench.runner import run_lock
+from metrics import write_tum
+from worlds import Grid, write_map
+from tests.bench.conftest import TINY
+
+
+@pytest.fixture(scope="module")
+def base_run(tmp_path_factory):
+    """A finished run of oracle and fake_map on the tiny world (made once, copied per test)."""
+    out = tmp_path_factory.mktemp("add") / "run"
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setenv("SLAM_BENCH_CACHE", str(tmp_path_factory.getbasetemp() / "logcache"))
+        assert main(["run", "--world", TINY, "--algo", "oracle,fake_map", "--repeats", "1",
+                     "--jobs", "1", "--out", str(out), "--no-progress", "--no-figures"]) == 0
+    return out
+
+
+@pytest.fixture
+def run(base_run, tmp_path):
+    return shutil.copytree(base_run, tmp_path / "run")
+
+
+def _rows(run):
+    return json.loads((run / "results.json").read_text())["rows"]
+
+
+def _row(run, algo, repeat=0):
+    return next(r for r in _rows(run) if r["algo"] == algo and r["repeat"] == repeat)
+
+
+def _oracle_files(run, tmp_path, image_format="pgm", repeat=0):
+    """The oracle's map of the run as a map_server pair, and its trajectory as TUM."""
+    with np.load(run / "maps" / "tiny" / "oracle" / f"{repeat}.npz") as z:
+        grid = Grid(z["prob"], float(z["resolution"]), z["origin"])
+        write_tum(tmp_path / "oracle.tum", z["times"], z["poses"])
+    yaml_path = tmp_path / f"oracle_{image_format}.yaml"
+    write_map(grid, yaml_path, image_format=image_format)
+    return yaml_path, tmp_path / "oracle.tum"
+
+
+def _table_cells(md: str, title: str) -> dict[str, str]:
+    """Column head -> the tiny row's cell of the table under the heading `title`."""
+    lines = md[md.index(title):].splitlines()
+    head = next(line for line in lines if line.startswith("| world |"))
+    row = next(line for line in lines if line.startswith("| tiny |"))
+    cells = [[c.strip() for c in line.strip().strip("|").split("|")] for line in (head, row)]
+    return dict(zip(*cells))
+
+
+def test_outside_map_scores_as_the_oracle(run, tmp_path, capsys):
+    yaml_path, tum = _oracle_files(run, tmp_path)
+    assert main(["add", str(run), "--world", "tiny", "--algo", "oracle_copy",
+                 "--map", str(yaml_path), "--trajectory", str(tum)]) == 0
+    out = capsys.readouterr().out
+    assert f"report: {run / 'summary.md'}" in out and "tiny/oracle_copy/0: precision" in out
+
+    oracle, mine = _row(run, "oracle"), _row(run, "oracle_copy")
+    assert set(oracle) <= set(mine)
+    assert mine["status"] == "ok" and mine["source"] == "outside"
+    assert (mine["repeat"], mine["draw"], mine["slam_seed"]) == (0, 0, None)
+    assert mine["log_seed"] == oracle["log_seed"]
+    assert mine["map_source"] == str(yaml_path.resolve())
+    for key in ("precision", "sensitivity", "precision_t1", "sensitivity_t1", "adnn_cells"):
+        assert mine[key] == pytest.approx(oracle[key], abs=1e-12), key
+    assert mine["ate_m"] == pytest.approx(0.0, abs=1e-6)
+    assert (run / mine["map_file"]).is_file()
+
+    md = (run / "summary.md").read_text()
+    ps = _table_cells(md, "## Table 2:")
+    assert ps["oracle_copy P"] == f"{oracle['precision']:.3f} ± 0.000" == ps["oracle (ceiling) P"]
+    assert ps["oracle_copy S"] == f"{oracle['sensitivity']:.3f} ± 0.000" == ps["oracle (ceiling) S"]
+    assert "fake_map P" in ps
+    assert _table_cells(md, "## Table 1:")["oracle_copy"] == f"{oracle['adnn_cells']:.2f} ± 0.00"
+    assert "(`bench add`): oracle_copy." in md
+    assert "tiny,oracle_copy,1,0," in (run / "summary.csv").read_text()
+    assert (run / "figures" / "overlay_tiny_oracle_copy.png").is_file()
+
+    # again, as a PNG map and without a trajectory: the next repeat, the same scores
+    png, _ = _oracle_files(run, tmp_path, "png")
+    assert main(["add", str(run), "--world", "tiny", "--algo", "oracle_copy", "--map", str(png),
+                 "--no-figures"]) == 0
+    second = _row(run, "oracle_copy", 1)
+    assert second["precision"] == mine["precision"] and second["ate_m"] is None
+    assert _table_cells((run / "summary.md").read_text(), "## Table 2:")["oracle_copy P"] == \
+        f"{oracle['precision']:.3f} ± 0.000"
+    added = json.loads((run / "run.json").read_text())["added"]
+    assert [(a["algo"], a["repeat"]) for a in added] == [("oracle_copy", 0), ("oracle_copy", 1)]
+
+    # the outside rows are not tasks of the run: resuming it finds nothing to do
+    assert main(["run", "--resume", str(run), "--jobs", "1", "--no-progress", "--no-figures"]) == 0
+    assert "2/2 rows (0 failed)" in capsys.readouterr().err
+
+
+def _err_line(capsys):
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("error: "), err
+    return err[0]
+
+
+@pytest.mark.parametrize("change, msg", [
+    ({"dir": "EMPTY"}, "no run.json here: not a bench run directory"),
+    ({"--world": "swirl_s"}, "--world swirl_s: not a world of this run (its worlds: tiny)"),
+    ({"--map": "MISSING"}, "missing.yaml: file not found"),
+    ({"--map": "BAD"}, "bad.yaml: resolution: missing required field"),
+    ({"--map": "BROKEN_PNG"}, "broken.png: not an image"),
+    ({"--algo": "oracle"}, "--algo oracle: an algorithm of this run (oracle, fake_map)"),
+    ({"--algo": "fake_map"}, "--algo fake_map: an algorithm of this run"),
+    ({"--algo": "pf"}, "--algo pf: the name of one of this project's algorithms"),
+    ({"--algo": "../x"}, "--algo '../x': expected a name of letters"),
+    ({"--draw": "1"}, "--draw 1: out of range (tiny has draws 0..0 in this run)"),
+    ({"--draw": "-1"}, "--draw: must be an integer >= 0, got '-1'"),
+    ({"--trajectory": "BAD_TUM"}, "bad.tum: line 1"),
+    ({"--map": None}, "the following arguments are required: --map"),
+])
+def test_bad_input_is_one_line_exit_2(run, tmp_path, capsys, change, msg):
+    yaml_path, _ = _oracle_files(run, tmp_path)
+    (tmp_path / "bad.yaml").write_text("image: x.pgm\norigin: [0, 0, 0]\n")
+    (tmp_path / "broken.png").write_text("not a picture\n")
+    (tmp_path / "broken.yaml").write_text(yaml_path.read_text().replace("oracle_pgm.pgm", "broken.png"))
+    (tmp_path / "bad.tum").write_text("0 1 2\n")
+    (tmp_path / "empty").mkdir()
+    files = {"EMPTY": tmp_path / "empty", "MISSING": tmp_path / "missing.yaml",
+             "BAD": tmp_path / "bad.yaml", "BROKEN_PNG": tmp_path / "broken.yaml",
+             "BAD_TUM": tmp_path / "bad.tum"}
+    args = {"dir": run, "--world": "tiny", "--algo": "outside", "--map": yaml_path}
+    args.update(change)
+    argv = ["add", str(files.get(args.pop("dir"), run))]
+    for k, v in args.items():
+        if v is not None:
+            argv += [k, str(files.get(v, v))]
+    before = (run / "results.json").read_bytes()
+    assert main(argv) == 2
+    assert msg in _err_line(capsys)
+    assert (run / "results.json").read_bytes() == before
+
+
+def test_a_run_in_progress_is_refused(run, tmp_path, capsys):
+    yaml_path, _ = _oracle_files(run, tmp_path)
+    with run_lock(run):
+        assert main(["add", str(run), "--world", "tiny", "--algo", "x", "--map", str(yaml_path),
+                     "--no-figures"]) == 2
+    assert "in use by another bench run" in _err_line(capsys)
+    assert main(["add", str(run), "--world", "tiny", "--algo", "x", "--map", str(yaml_path),
+                 "--no-figures"]) == 0
+
+
+def test_draw_takes_the_draws_log_seed(tmp_path, capsys):
+    out = tmp_path / "run"
+    assert main(["run", "--world", TINY, "--algo", "oracle", "--repeats", "1", "--draws", "2",
+                 "--seed", "5", "--jobs", "1", "--out", str(out), "--no-progress",
+                 "--no-figures"]) == 0
+    yaml_path, tum = _oracle_files(out, tmp_path, repeat=1)   # draw 1's oracle run
+    assert main(["add", str(out), "--world", "tiny", "--algo", "ros", "--map", str(yaml_path),
+                 "--draw", "1", "--trajectory", str(tum), "--no-figures"]) == 0
+    row, oracle = _row(out, "ros"), _row(out, "oracle", 1)
+    assert (row["draw"], row["log_seed"]) == (1, oracle["log_seed"]) == (1, 6)
+    assert row["precision"] == pytest.approx(oracle["precision"], abs=1e-12)
+    assert row["ate_m"] == pytest.approx(0.0, abs=1e-6)
+    md = (out / "summary.md").read_text()
+    assert "## Across noise draws" in md and "| ros P | ros S | oracle (ceiling) P |" in md
+
+
+def test_trajectory_without_a_true_path_is_refused(run, tmp_path, capsys):
+    yaml_path, tum = _oracle_files(run, tmp_path)
+    (run / "maps" / "tiny" / "gt_s0.npz").unlink()   # as for a real robot's log
+    assert main(["add", str(run), "--world", "tiny", "--algo", "x", "--map", str(yaml_path),
+                 "--trajectory", str(tum)]) == 2
+    assert "gt_s0.npz: missing: the run's true path of tiny log seed 0 is needed" in _err_line(capsys)
+    assert main(["add", str(run), "--world", "tiny", "--algo", "x", "--map", str(yaml_path),
+                 "--no-figures"]) == 0
