@@ -1,4 +1,4 @@
-"""python -m bench run | report | add | regress  (a thin CLI over bench's Python API)."""
+"""python -m bench run | add | merge | report | regress | speed  (a thin CLI over bench's Python API)."""
 from __future__ import annotations
 
 import argparse
@@ -42,10 +42,25 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--jobs", type=positive_int, default=None, help="worker processes (default: all cores)")
     r.add_argument("--out", help="output directory (default runs/<UTC timestamp>)")
     r.add_argument("--resume", metavar="DIR", help="complete the run in DIR (same seeds)")
+    r.add_argument("--shard", metavar="K/N", type=parse_shard_flag,
+                   help="run only the K-th of N deterministic slices of the tasks (e.g. one task "
+                        "of a SLURM job array); join the shards with `bench merge`")
     r.add_argument("--scheduler", metavar="ADDRESS",
                    help="Dask scheduler address (tcp://host:8786, or 'local'); needs .[dask]")
     r.add_argument("--no-progress", action="store_true", help="no progress output")
     r.add_argument("--no-figures", action="store_true", help="tables only")
+
+    m = sub.add_parser("merge", help="join the shards of one run (bench run --shard K/N) into one run")
+    m.add_argument("dirs", nargs="+", metavar="DIR", help="shard folders")
+    m.add_argument("--out", required=True, help="the merged run's folder (new)")
+    m.add_argument("--no-figures", action="store_true", help="tables only")
+
+    sp = sub.add_parser("speed", help="real-time factors of the simulator and each algorithm on "
+                                      "the shipped worlds (median of --runs, one core)")
+    sp.add_argument("--world", default="all", help="world names or 'all' (default)")
+    sp.add_argument("--algo", help="comma-separated algorithms (default: pf,gn,graph,oracle)")
+    sp.add_argument("--runs", type=positive_int, default=3, help="runs per figure (default 3)")
+    sp.add_argument("--noise", default="realistic", help="sensor-noise profile (default realistic)")
 
     rep = sub.add_parser("report", help="rebuild summary.md/.csv and figures from results.json")
     rep.add_argument("dir")
@@ -82,7 +97,7 @@ def _spec_from_args(args):
     if sum(bool(v) for v in (args.world, args.suite, args.logs)) > 1:
         raise InputError("give one of --world, --suite and --logs")
     given = (args.world, args.suite, args.logs, args.draws, args.min_coverage, args.algo,
-             args.repeats, args.seed, args.noise, args.vary)
+             args.repeats, args.seed, args.noise, args.vary, args.shard)
     if args.resume:
         stored = RunSpec.from_json(read_run(Path(args.resume))["spec"])
         if all(v is None for v in given) and not args.config and not args.set:
@@ -126,6 +141,7 @@ def _spec_from_args(args):
         suite=suite_name,
         logs=logs if not (args.world or args.suite) else (),
         overrides=parse_overrides(args.set, algos) if args.set else (base.overrides if base else {}),
+        shard=args.shard or (base.shard if base else (1, 1)),
     )
 
 
@@ -181,10 +197,35 @@ def cmd_regress(args) -> int:
                    repeats=args.repeats, jobs=args.jobs, out=args.out)
 
 
+def cmd_merge(args) -> int:
+    from bench.merge import merge_runs
+    from bench.report import write_report
+    n, missing = merge_runs(args.dirs, args.out)
+    note = (f"; shards {', '.join(map(str, missing))} missing: complete them with "
+            f"python -m bench run --resume {args.out}") if missing else ""
+    print(f"{n} rows from {len(args.dirs)} shards in {args.out}{note}")
+    print(f"report: {write_report(args.out, figures=not args.no_figures)}")
+    return 0
+
+
+def cmd_speed(args) -> int:
+    from bench.plan import parse_worlds, resolve_algos
+    from bench.speed import speed_table
+    algos = resolve_algos(args.algo) if args.algo else ["pf", "gn", "graph", "oracle"]
+    table = speed_table(parse_worlds(args.world), algos, args.runs, args.noise, stream=sys.stderr)
+    print(table)
+    return 0
+
+
+def parse_shard_flag(text: str):
+    from bench.plan import parse_shard
+    return parse_shard(text)
+
+
 def main(argv: list[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     commands = {"run": lambda args: cmd_run(args, argv), "report": cmd_report, "add": cmd_add,
-                "regress": cmd_regress}
+                "regress": cmd_regress, "merge": cmd_merge, "speed": cmd_speed}
     return run_cli(build_parser, lambda args: commands[args.command](args), argv)
 
 

@@ -15,6 +15,7 @@ rows are numbered d * R + r and carry `draw` = d.
 from __future__ import annotations
 
 import dataclasses
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -24,7 +25,7 @@ from slam.registry import ENTRY_POINT_GROUP
 
 __all__ = ["RunSpec", "Task", "VARY", "parse_worlds", "resolve_algos", "load_plugins",
            "parse_configs", "parse_overrides", "read_log_set", "seeds_for", "make_tasks",
-           "ENTRY_POINT_GROUP"]
+           "shard_tasks", "parse_shard", "ENTRY_POINT_GROUP"]
 
 VARY = ("slam", "data", "both")
 
@@ -39,7 +40,8 @@ class RunSpec:
     draws per world (module docstring); min_coverage: a log whose lidar saw less of the true
     walls gives failed rows; suite: the suite's name, for the report ("" outside a suite);
     logs: recorded sensor logs to run on instead of recording (absolute paths; see
-    read_log_set); overrides: algo -> nested mapping of config fields set on top of its config.
+    read_log_set); overrides: algo -> nested mapping of config fields set on top of its config;
+    shard: (K, N), this run does the K-th of N deterministic slices of the tasks (shard_tasks).
     """
 
     worlds: tuple[str, ...]
@@ -54,6 +56,7 @@ class RunSpec:
     suite: str = ""
     logs: tuple[str, ...] = ()
     overrides: dict = field(default_factory=dict)
+    shard: tuple[int, int] = (1, 1)
 
     def __post_init__(self):
         if isinstance(self.repeats, bool) or not isinstance(self.repeats, int) or self.repeats < 1:
@@ -77,6 +80,11 @@ class RunSpec:
         object.__setattr__(self, "configs", dict(self.configs))
         object.__setattr__(self, "logs", tuple(self.logs))
         object.__setattr__(self, "overrides", dict(self.overrides))
+        shard = tuple(self.shard)
+        if (len(shard) != 2 or not all(isinstance(v, int) and not isinstance(v, bool) for v in shard)
+                or not 1 <= shard[0] <= shard[1]):
+            raise InputError(f"--shard must be K/N with 1 <= K <= N, got {self.shard!r}")
+        object.__setattr__(self, "shard", shard)
         if self.logs and (self.draws != 1 or self.vary != "slam"):
             raise InputError("--logs: each log is one draw; repeats vary the SLAM seed only")
 
@@ -107,6 +115,21 @@ class Task:
     @property
     def label(self) -> str:
         return f"{self.world}/{self.algo}/{self.repeat}"
+
+
+def shard_tasks(tasks: list[Task], shard: tuple[int, int]) -> list[Task]:
+    """The K-th of N slices of `tasks` (every N-th task from the (K-1)-th): the same slice
+    for the same spec, on any machine, and the N slices together hold every task once."""
+    k, n = shard
+    return tasks[k - 1::n]
+
+
+def parse_shard(text: str) -> tuple[int, int]:
+    """'K/N' -> (K, N), 1 <= K <= N."""
+    m = re.fullmatch(r"\s*(\d+)\s*/\s*(\d+)\s*", str(text))
+    if not m or not 1 <= int(m[1]) <= int(m[2]):
+        raise InputError(f"--shard: expected K/N with 1 <= K <= N (e.g. 3/8), got {text!r}")
+    return int(m[1]), int(m[2])
 
 
 def seeds_for(vary: str, seed: int, repeat: int) -> tuple[int, int]:

@@ -20,10 +20,10 @@ __all__ = ["ResultStore", "RESULTS_NAME", "RUN_NAME", "TIMING_FIELDS", "comparab
 RESULTS_NAME = "results.json"
 RUN_NAME = "run.json"
 FORMAT = 1
-# fields that differ between two runs of the same rows (machine load, dates)
+# fields that differ between two runs of the same rows (machine load, dates, the machine)
 TIMING_FIELDS = frozenset({"wall_time_s", "realtime_factor", "update_time_median_s",
                            "update_time_max_s", "finish_time_s", "task_time_s", "score_time_s",
-                           "finished_at", "worker"})
+                           "finished_at", "worker", "host", "cpu"})
 
 
 def row_key(row: dict) -> tuple[str, str, int]:

@@ -29,7 +29,8 @@ import numpy as np
 from worlds.yamlio import InputError, atomic_write_bytes, atomic_write_text
 from bench import cache
 from bench.executors import make_executor
-from bench.plan import RunSpec, Task, config_dict, load_config_checked, load_plugins, make_tasks
+from bench.plan import (RunSpec, Task, config_dict, load_config_checked, load_plugins, make_tasks,
+                        shard_tasks)
 from bench.progress import Progress
 from bench.results import RESULTS_NAME, RUN_NAME, ResultStore, jsonable
 from bench.task import WorldInfo, compile_algorithm, execute, new_row, record_log, versions
@@ -252,7 +253,8 @@ def _run_locked(spec: RunSpec, out_dir: Path, jobs, scheduler, resume, progress,
         from bench.plan import read_log_set
         given = {(key_of[world], seed): Path(path)
                  for path, world, seed, _ in read_log_set(",".join(spec.logs))}
-    all_tasks = make_tasks(spec, list(world_map), list(given) if spec.logs else None)
+    all_tasks = shard_tasks(make_tasks(spec, list(world_map), list(given) if spec.logs else None),
+                            spec.shard)
     todo = [t for t in all_tasks if t.key not in store]
     by_log: dict[tuple[str, int], list[Task]] = {}
     for t in todo:

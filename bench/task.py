@@ -42,6 +42,7 @@ class WorldInfo:
 
 
 _VERSIONS: dict | None = None
+_MACHINE: dict | None = None
 
 
 def versions() -> dict:
@@ -186,7 +187,23 @@ def new_row(task, noise: str = "", vary: str = "slam") -> dict:
     """The fields every row of `task` (bench.plan.Task) has, status "ok" until told otherwise."""
     return {"world": task.world, "algo": task.algo, "repeat": int(task.repeat), "status": "ok",
             "error": None, "log_seed": int(task.log_seed), "slam_seed": int(task.slam_seed),
-            "draw": int(task.draw), "noise": str(noise), "vary": vary, "versions": versions()}
+            "draw": int(task.draw), "noise": str(noise), "vary": vary, "versions": versions(),
+            **machine()}
+
+
+def machine() -> dict:
+    """Where a row was computed: host name and CPU model (cached per process)."""
+    global _MACHINE
+    if _MACHINE is None:
+        cpu = platform.processor() or platform.machine()
+        try:
+            with open("/proc/cpuinfo", encoding="utf-8") as fh:
+                cpu = next((line.split(":", 1)[1].strip() for line in fh
+                            if line.startswith("model name")), cpu)
+        except OSError:
+            pass
+        _MACHINE = {"host": platform.node(), "cpu": cpu}
+    return dict(_MACHINE)
 
 
 def execute(task, world: WorldInfo, log_source, config=None, noise: str = "", vary: str = "slam",

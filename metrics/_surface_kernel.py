@@ -22,7 +22,7 @@ from numba import njit
 __all__ = ["surface_match", "surface_match_ref"]
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _clip_box(x0, y0, dx, dy, xmin, xmax, ymin, ymax):
     """Liang-Barsky: parameter interval (t0, t1) of p(t) = (x0, y0) + t (dx, dy), t in [0, 1],
     inside the closed box; t0 > t1 when there is none."""
@@ -50,7 +50,7 @@ def _clip_box(x0, y0, dx, dy, xmin, xmax, ymin, ymax):
     return t0, t1
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _clip_disc(x0, y0, dx, dy, cx, cy, d):
     """Parameter interval of p(t), t in [0, 1], within distance d of (cx, cy)."""
     a = dx * dx + dy * dy
@@ -67,7 +67,7 @@ def _clip_disc(x0, y0, dx, dy, cx, cy, d):
     return max(0.0, (-b - s) / a), min(1.0, (-b + s) / a)
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _near_interval(x0, y0, dx, dy, c, r, d):
     """Parameter interval of the points of the segment within d of cell (r, c)'s square."""
     lo, hi = np.inf, -np.inf
@@ -85,7 +85,7 @@ def _near_interval(x0, y0, dx, dy, c, r, d):
     return lo, hi
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _room_for(buf, n):
     """buf, or a copy twice its length when its n rows are all used."""
     if n < buf.shape[0]:
@@ -95,7 +95,7 @@ def _room_for(buf, n):
     return bigger
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def surface_match(segments, occupied, d):
     """Touching cells and covered stretches.
 

@@ -16,7 +16,7 @@ __all__ = ["cast_rays", "cast_rays_ref"]
 _PARALLEL_EPS = 1e-12
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def cast_rays(segments, origins, angles, max_range):
     """Distance from each origin along its angle to the nearest segment.
 

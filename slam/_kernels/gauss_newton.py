@@ -25,7 +25,7 @@ __all__ = ["gn_normal_equations", "gn_normal_equations_ref", "gn_update", "gn_it
 NO_NORMALS = np.zeros((0, 2))
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def gn_normal_equations(prob, grid_meta, pts_robot, pose, normals=NO_NORMALS):
     """prob: (rows, cols); pts_robot: (N, 2) m; pose: (3,); normals: (N, 2) robot-frame unit
     normals (zero row: none) or (0, 2). Returns H (3, 3), g (3,), cost."""
@@ -75,7 +75,7 @@ def gn_normal_equations_ref(prob, grid_meta, pts_robot, pose, normals=None):
     return J.T @ J, J.T @ r, float(r @ r)
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _solve3(H, g):
     """Solution of the 3x3 system H x = g by Cramer's rule; (zeros, False) when singular."""
     a, b, c = H[0, 0], H[0, 1], H[0, 2]
@@ -92,7 +92,7 @@ def _solve3(H, g):
     return x, True
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _add_prior(H, g, est, prior, prior_info):
     """Adds d^T prior_info d, d = prior - est (yaw difference wrapped), to the normal
     equations in place; returns that cost."""
@@ -109,7 +109,7 @@ def _add_prior(H, g, est, prior, prior_info):
     return cost
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def gn_update(H, g, est, prior, prior_info, max_angle_step):
     """One Gauss-Newton step from normal equations H (3, 3), g (3,) at est (3,), in place:
     the prior's pull added, the rotation clamped to +-max_angle_step, yaw wrapped. Returns
@@ -131,7 +131,7 @@ def gn_update(H, g, est, prior, prior_info, max_angle_step):
     return True
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def gn_iterate(prob, grid_meta, pts_robot, pose, iterations, max_angle_step, prior, prior_info,
                normals=NO_NORMALS):
     """`iterations` Hector Gauss-Newton steps from pose (3,); the rotation of a step is clamped

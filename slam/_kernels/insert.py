@@ -31,7 +31,7 @@ __all__ = ["insert_rays_inplace", "insert_rays_ref", "axis_walk"]
 _UNTOUCHED, _FREED, _HIT, _OBSERVED = 0, 1, 2, 3
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _apply(logodds, r, c, l, l_min, l_max):
     v = logodds[r, c]
     if v != v:  # NaN: never touched
@@ -44,7 +44,7 @@ def _apply(logodds, r, c, l, l_min, l_max):
     logodds[r, c] = v
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def axis_walk(p0, cell, d):
     """One axis of an Amanatides-Woo walk from coordinate p0 (cell units) in cell `cell`
     along the segment's extent d: (step -1/0/1, parameter per cell crossed, parameter at
@@ -58,7 +58,7 @@ def axis_walk(p0, cell, d):
     return 0, np.inf, np.inf
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _traverse(x0, y0, x1, y1, path):
     """Cells (col, row) from the cell of (x0, y0) to the cell of (x1, y1), map units, into
     path (K, 2); returns their number (Amanatides-Woo, 4-connected)."""
@@ -87,7 +87,7 @@ def _traverse(x0, y0, x1, y1, path):
     return steps + 1
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def insert_rays_inplace(logodds, grid_meta, origin_xy, ends_xy, hit_mask, l_free, l_occ, l_min, l_max,
                         free_margin=None):
     """Update `logodds` (rows, cols) in place with the rays origin_xy (2,) -> ends_xy (N, 2) (m).

@@ -16,7 +16,7 @@ __all__ = ["interp_value_grad", "interp_point", "interp_value_grad_ref", "add_no
            "symmetrize_upper"]
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def interp_point(prob, ox, oy, res, rows, cols, x, y):
     """(M, dM/dx, dM/dy) at world point x, y (m); gradient per metre."""
     u = (x - ox) / res - 0.5  # continuous index with cell centres at integers
@@ -37,7 +37,7 @@ def interp_point(prob, ox, oy, res, rows, cols, x, y):
     return m, du / res, dv / res
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def add_normal_row(H, g, j0, j1, j2, r):
     """Add one residual r with Jacobian row (j0, j1, j2) to the upper triangle of the 3x3
     Gauss-Newton matrix H = J^T J and to g = J^T r (the scan matchers' inner loop)."""
@@ -52,7 +52,7 @@ def add_normal_row(H, g, j0, j1, j2, r):
     H[2, 2] += j2 * j2
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def symmetrize_upper(H):
     """Copy the upper triangle of the 3x3 H into the lower one."""
     H[1, 0] = H[0, 1]
@@ -60,7 +60,7 @@ def symmetrize_upper(H):
     H[2, 1] = H[1, 2]
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def interp_value_grad(prob, grid_meta, pts_xy):
     """prob: (rows, cols) finite values; pts_xy: (N, 2) world m. Returns (N, 3) M, dM/dx, dM/dy."""
     ox, oy, res = grid_meta[0], grid_meta[1], grid_meta[2]

@@ -14,7 +14,7 @@ from numba import njit
 __all__ = ["logodds_to_prob", "logodds_to_prob_ref"]
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def logodds_to_prob(logodds, unknown):
     """(rows, cols) float64 log-odds, NaN = never touched -> (rows, cols) float64
     probabilities 1 / (1 + exp(-l)); never-touched cells get `unknown`."""

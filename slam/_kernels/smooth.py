@@ -11,7 +11,7 @@ from numba import njit
 __all__ = ["smooth_ranges", "smooth_ranges_ref"]
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def smooth_ranges(ranges, valid, half, jump, step, circular):
     """ranges: (B,) m; valid: (B,) bool; step: rad between beams; circular: beam B-1 neighbours
     beam 0. Neighbours invalid or with |r_j - r_i| > jump * r_i (an occluding edge) are left

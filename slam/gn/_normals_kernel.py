@@ -21,7 +21,7 @@ from numba import njit
 __all__ = ["scan_normals", "scan_normals_ref", "normal_information"]
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def scan_normals(points, half, max_gap):
     """points: (N, 2) m in scan order. Returns (N, 2) unit normals (sign arbitrary); a zero row
     where fewer than 3 points (the point and its usable neighbours) are left."""

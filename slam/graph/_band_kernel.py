@@ -17,7 +17,7 @@ from scipy.linalg import cho_solve_banded, cholesky_banded
 __all__ = ["band_cholesky_solve", "band_cholesky_solve_ref"]
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def band_cholesky_solve(ab, rhs):
     """x (n, m) with A x = rhs for the symmetric positive definite band matrix A given by ab
     (u+1, n) and rhs (n, m). Returns (x, ok); ok False (x undefined) when A is not positive

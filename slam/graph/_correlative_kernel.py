@@ -27,7 +27,7 @@ __all__ = ["max_grids", "max_grids_ref", "bnb_search", "score_candidates", "scor
            "best_candidate_ref", "discretize_rotations", "discretize_rotations_ref"]
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def discretize_rotations(points, x, y, yaws, ox, oy, res):
     """(K, N, 2) int32 (col, row) cells of the points (N, 2, robot frame) with the robot at
     (x, y) and each yaw (K,), on the lattice of origin (ox, oy) and cell size res: the
@@ -54,7 +54,7 @@ def discretize_rotations_ref(points, x, y, yaws, ox, oy, res) -> np.ndarray:
     return np.stack([np.floor((wx - ox) / res), np.floor((wy - oy) / res)], axis=2).astype(np.int32)
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def max_grids(prob, depth):
     """prob: (R, C) float grid values (NaN not allowed; use 0 for unknown); depth: D >= 0.
 
@@ -107,7 +107,7 @@ def max_grids_ref(prob: np.ndarray, depth: int) -> np.ndarray:
     return out
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _score(grids, h, pad, cells, k, dx, dy):
     level = grids[h]
     R = level.shape[0]
@@ -122,7 +122,7 @@ def _score(grids, h, pad, cells, k, dx, dy):
     return s / n
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def score_candidates(grid, cells, wx, wy):
     """Scores of all candidates at the finest level.
 
@@ -178,7 +178,7 @@ def best_candidate_ref(grid: np.ndarray, cells: np.ndarray, wx: int, wy: int,
     return int(k), int(b - wx), int(a - wy), float(s[k, a, b])
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def bnb_search(grids, cells, wx, wy, min_score, ex_x, ex_y, ex_r):
     """Branch and bound over rotations and cell shifts (Hess et al. 2016, Algorithm 3).
 

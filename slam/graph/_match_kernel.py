@@ -19,7 +19,7 @@ from slam._kernels.interp import add_normal_row, interp_point, interp_value_grad
 __all__ = ["match_lm", "match_lm_ref"]
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _cost_grad(prob, meta, pts, wts, pose, prior, w_occ, w_t, w_r, H, g):
     ox, oy, res = meta[0], meta[1], meta[2]
     rows, cols = int(meta[3]), int(meta[4])
@@ -60,7 +60,7 @@ def _cost_grad(prob, meta, pts, wts, pose, prior, w_occ, w_t, w_r, H, g):
     return cost
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def match_lm(prob, meta, pts, wts, pose0, prior, w_occ, w_t, w_r, iterations):
     """Pose minimising the scan-matching cost, from pose0.
 

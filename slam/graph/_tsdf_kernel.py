@@ -32,7 +32,7 @@ __all__ = ["estimate_normals", "tsdf_insert", "estimate_normals_ref", "tsdf_inse
 _INV_SQRT_2PI = 1.0 / math.sqrt(2.0 * math.pi)
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _kernel(x, bandwidth):
     if bandwidth <= 0.0:
         return 1.0
@@ -40,12 +40,12 @@ def _kernel(x, bandwidth):
     return _INV_SQRT_2PI / bandwidth * math.exp(-0.5 * z * z)
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _wrap(a):
     return math.atan2(math.sin(a), math.cos(a))
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def estimate_normals(origin, hits, num_samples, radius):
     """(N,) normal angles (rad) of hits (N, 2) sorted by bearing from origin (2,)."""
     n = hits.shape[0]
@@ -77,7 +77,7 @@ def estimate_normals(origin, hits, num_samples, radius):
     return out
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def tsdf_insert(tsd, weight, stamp, scan_id, meta, origin, hits, normals, truncation, max_weight,
                 angle_bandwidth, distance_bandwidth):
     """Insert one scan's hits (N, 2) (bearing order) with their normals (N,) from origin (2,).

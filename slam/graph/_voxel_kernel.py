@@ -21,7 +21,7 @@ MINSTD_A = 48271
 MINSTD_M = 2147483647
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _minstd_keys(n):
     keys = np.empty(n, np.int64)
     x = np.int64(1)
@@ -31,7 +31,7 @@ def _minstd_keys(n):
     return keys
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def voxel_filter_kernel(points, size, randomized=False):
     """(N, 2) float64 -> one point of each occupied voxel of `size`, in input order: the
     first, or (randomized) the one with the smallest minstd key."""
@@ -71,7 +71,7 @@ def voxel_filter_kernel(points, size, randomized=False):
     return points[keep]
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def adaptive_voxel_filter_kernel(points, max_length, min_num_points, max_range, randomized=False):
     """Cartographer's AdaptiveVoxelFilter (see slam.graph.filters.adaptive_voxel_filter_ref)."""
     n = points.shape[0]

@@ -35,7 +35,7 @@ __all__ = ["N_FIELDS", "ray_cells", "mark_touched", "privatize", "insert_scans",
 N_FIELDS = 4
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def ray_cells(u0, v0, u1, v1, out_c, out_r):
     """Cells crossed by the segment (u0, v0) -> (u1, v1) in cell units, start to end.
 
@@ -68,7 +68,7 @@ def ray_cells(u0, v0, u1, v1, out_c, out_r):
     return n
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def beam_world(pose, origin, ends):
     """Lidar origin (2,) and beam ends (K, 2) in the world for robot pose (3,).
 
@@ -86,7 +86,7 @@ def beam_world(pose, origin, ends):
     return o, w
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def ray_buffer_len(poses, origin, ends, res):
     """Cells the longest ray of any pose can cross (Manhattan length in cells + margin)."""
     m = 4
@@ -99,7 +99,7 @@ def ray_buffer_len(poses, origin, ends, res):
     return m
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def mark_touched(n_tile_rows, n_tile_cols, grid_meta, poses, origin, ends):
     """(N, TR, TC) bool: the tiles that inserting `ends` at each of `poses` writes to.
 
@@ -126,7 +126,7 @@ def mark_touched(n_tile_rows, n_tile_cols, grid_meta, poses, origin, ends):
     return mask
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def privatize(tables, pool, refcount, todo, free_slots):
     """Give each (p, tile_row, tile_col) of `todo` a tile of its own, in place.
 
@@ -153,7 +153,7 @@ def privatize(tables, pool, refcount, todo, free_slots):
     return used
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def insert_scans(tables, pool, grid_meta, poses, origin, ends, hit):
     """Count one scan into each particle's map, in place (Gmapping's registerScan).
 

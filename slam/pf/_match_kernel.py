@@ -44,7 +44,7 @@ def make_params(**kw) -> np.ndarray:
     return np.array([float(kw[k]) for k in PARAMS])
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def extract_patches(tables, pool, grid_meta, boxes, fullness):
     """Dense views of each particle's map in a box of cells, for fast repeated scoring.
 
@@ -144,7 +144,7 @@ def _nearest_d2(hx, hy, cand_x, cand_y, n):
     return best
 
 
-@njit(cache=True, fastmath=_FAST)
+@njit(cache=True, fastmath=_FAST, nogil=True)
 def score_and_likelihood(occ, mean, corner, grid_meta, pose, hits, frees, params):
     """(score, log likelihood) of one robot pose (3,) against one particle's map patch.
 
@@ -179,7 +179,7 @@ def score_and_likelihood(occ, mean, corner, grid_meta, pose, hits, frees, params
 _BEAM_MAX = 1.0 + 1e-6
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def beam_cache(n_beams, kernel):
     """Scratch for score_above: per beam the cells it last fell in, keys (n, 4) int64 (hit
     row, column, free point's row and column offset), and the matching candidates found
@@ -189,7 +189,7 @@ def beam_cache(n_beams, kernel):
             np.empty((n_beams, width)), np.empty((n_beams, width)))
 
 
-@njit(cache=True, fastmath=_FAST)
+@njit(cache=True, fastmath=_FAST, nogil=True)
 def score_above(occ, mean, corner, grid_meta, pose, hits, frees, params, bound, keys, count, cand_x,
                 cand_y):
     """score_and_likelihood's score when it exceeds `bound`; otherwise some value <= bound,
@@ -227,7 +227,7 @@ def score_above(occ, mean, corner, grid_meta, pose, hits, frees, params, bound, 
     return score
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _climb_one(occ, mean, corner, grid_meta, init, hits, frees, params):
     """Gmapping's optimize(): axis moves x, y, yaw; halve the steps when none improves."""
     ldelta, adelta, iterations = params[5], params[6], int(params[7])
@@ -278,7 +278,7 @@ def _climb_one(occ, mean, corner, grid_meta, init, hits, frees, params):
     return cur, best_score
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def hill_climb(occ, mean, corner, grid_meta, poses, hits, frees, params):
     """Scan-match every particle against its own map patch from its pose.
 
@@ -294,7 +294,7 @@ def hill_climb(occ, mean, corner, grid_meta, poses, hits, frees, params):
     return out, scores
 
 
-@njit(cache=True, fastmath=_FAST)
+@njit(cache=True, fastmath=_FAST, nogil=True)
 def grid_likelihoods(occ, mean, corner, grid_meta, pose, nl, ls, na, ast, hits, frees, params, out):
     """score_and_likelihood's log likelihood at every pose of the proposal grid pose +
     (ix ls, iy ls, ia ast), |ix|, |iy| <= nl, |ia| <= na, into out[j], j in (ix, iy, ia)
@@ -347,7 +347,7 @@ def grid_likelihoods(occ, mean, corner, grid_meta, pose, nl, ls, na, ast, hits, 
                     out[j] += -best / lsigma if best < np.inf else no_hit
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def proposal_moments(occ, mean, corner, grid_meta, poses, prior_mean, prior_std, hits, frees,
                      params):
     """Gaussian proposal around each matched pose from likelihood x motion prior.

@@ -44,7 +44,7 @@ def _cell_slot(table, rows, cols, tile, r, c):
 
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def mean_hit_patch(table, pool, grid_meta, box):
     """hits / visits over a box of cells (0 where unvisited) with, per cell, the
     offset (m) of its mean hit point from the cell centre and its hit count.
@@ -93,7 +93,7 @@ def mean_hit_patch_ref(dense: np.ndarray, box, resolution: float):
     return prob, off_x, off_y, h.copy()
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _normal_offset(prob, off_x, off_y, hits, ox, oy, res, rows, cols, x, y):
     """The hits-weighted mean offset of the four cells around (x, y), along the map gradient
     there; (0, 0) where none of them has a hit or the map is flat."""
@@ -124,7 +124,7 @@ def _normal_offset(prob, off_x, off_y, hits, ox, oy, res, rows, cols, x, y):
     return along * gx, along * gy
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def mean_hit_normal_equations(prob, off_x, off_y, hits, grid_meta, pts_robot, pose):
     """Hector's normal equations (slam/_kernels/gauss_newton.py) with the map read at each point
     moved back by its normal offset to the mean hit points. Returns H (3, 3), g (3,), cost."""
@@ -179,7 +179,7 @@ def mean_hit_normal_equations_ref(prob, off_x, off_y, hits, grid_meta, pts_robot
     return J.T @ J, J.T @ r, float(r @ r)
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def mean_hit_iterate(prob, off_x, off_y, hits, grid_meta, pts_robot, pose, iterations,
                      max_angle_step, prior, prior_info):
     """gauss_newton.gn_iterate's steps (gn_update) on mean_hit_normal_equations; returns the (3,)
