@@ -298,12 +298,11 @@ def _read(reader, p: Path, scan_topic, odom_topic, imu_topic) -> SensorLog:
     if odom_topic == "/ground_truth":
         odom_topic = None
     imu_topic = _pick(topics, imu_topic, ("sensor_msgs/msg/Imu",), "/imu", "IMU", p, False)
-    static = {}
-    for topic in ("/tf_static",):
-        if topics.get(topic) == "tf2_msgs/msg/TFMessage":
-            for msg in _messages(reader, topic):
-                for tf in msg.transforms:
-                    static[tf.child_frame_id] = (tf.header.frame_id, *_planar(tf.transform))
+    static = {}   # child frame -> (parent, x, y, yaw, upside down)
+    if topics.get("/tf_static") == "tf2_msgs/msg/TFMessage":
+        for msg in _messages(reader, "/tf_static"):
+            for tf in msg.transforms:
+                static[tf.child_frame_id] = (tf.header.frame_id, *_planar(tf.transform))
     scans, frame, geometry = [], None, None
     multi = topics[scan_topic].endswith("MultiEchoLaserScan")
     for msg in _messages(reader, scan_topic):
