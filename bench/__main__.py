@@ -148,11 +148,12 @@ def _spec_from_args(args):
 def cmd_run(args, argv) -> int:
     from bench.cache import cache_dir
     from bench.report import write_report
-    from bench.runner import default_out_dir, print_outcome, run_benchmark
+    from bench.runner import check_run_dir, default_out_dir, print_outcome, run_benchmark
     if args.resume and args.out and Path(args.out) != Path(args.resume):
         raise InputError("give either --resume DIR or --out DIR, not both")
     out_dir = check_out_dir(args.resume or args.out or default_out_dir(),
                             "--resume" if args.resume else "--out")
+    check_run_dir(out_dir, bool(args.resume))   # before a suite's worlds are generated
     spec = _spec_from_args(args)
     if not spec.logs:
         cache_dir()  # the logs are recorded into it: a cache that cannot be made fails now

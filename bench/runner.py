@@ -107,7 +107,8 @@ def read_run(out_dir: Path) -> dict:
         raise InputError(f"{p}: not valid JSON: {err}") from None
 
 
-def _check_out_dir(out_dir: Path, resume: bool) -> None:
+def check_run_dir(out_dir: Path, resume: bool) -> None:
+    """InputError unless `out_dir` can take a new run (no results yet) or, with `resume`, holds one."""
     holds = [n for n in (RESULTS_NAME, RUN_NAME) if (out_dir / n).exists()]
     if holds and not resume:
         raise InputError(f"{out_dir} already holds another run's results ({', '.join(holds)}); "
@@ -218,7 +219,7 @@ def run_benchmark(spec: RunSpec, out_dir: str | Path, jobs: int | None = None,
 
 def _run_locked(spec: RunSpec, out_dir: Path, jobs, scheduler, resume, progress, argv,
                 stream) -> RunOutcome:
-    _check_out_dir(out_dir, resume)
+    check_run_dir(out_dir, resume)
     previous = read_run(out_dir) if resume else None
     if previous is not None and RunSpec.from_json(previous["spec"]) != spec:
         raise InputError(f"--resume {out_dir}: the run was started with other arguments; "

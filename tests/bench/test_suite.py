@@ -92,3 +92,15 @@ def test_shipped_general_suite_names_the_study_worlds_loop_and_generated_worlds(
     assert names == [f"{k}_s{i}" for k in ("office", "warehouse", "hall", "loop") for i in range(3)]
     # generated once: a second load reuses the files
     assert load_suite("general").worlds == s.worlds
+
+
+def test_a_folder_holding_a_run_is_refused_before_the_suite_is_generated(tmp_path, tiny, capsys, monkeypatch):
+    """--suite into a folder that holds a run: refused at once, no world generated first."""
+    out = tmp_path / "o"
+    assert main(["run", "--world", tiny, "--algo", "fake_map", "--repeats", "1", "--jobs", "1",
+                 "--no-progress", "--no-figures", "--out", str(out)]) == 0
+    capsys.readouterr()
+    import bench.suite
+    monkeypatch.setattr(bench.suite, "load_suite", lambda *a, **k: pytest.fail("suite loaded"))
+    assert main(["run", "--suite", "general", "--out", str(out)]) == 2
+    assert "already holds another run's results" in _err_line(capsys)
