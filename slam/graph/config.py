@@ -39,7 +39,7 @@ class MotionFilterConfig:
 class AdaptiveVoxelConfig:
     """TRAJECTORY_BUILDER_2D.adaptive_voxel_filter (and loop_closure_adaptive_voxel_filter)."""
 
-    max_length: float = 0.5          # m, largest voxel tried
+    max_length: float = 0.5          # m, the voxel size the filter starts from (its largest)
     min_num_points: int = 200        # smallest voxel that keeps at least this many points
     max_range: float = 50.0          # m, points farther are dropped
 
