@@ -328,16 +328,13 @@ def read_log_set(text: str) -> list[tuple[str, str, int, str]]:
 
 def _log_world(path: Path, meta: dict) -> str:
     """The world of a recorded log as a loadable reference (a YAML path or a shipped name)."""
-    import worlds
-    src = str(meta.get("world_source") or "")
-    for cand in (Path(src), path.parent / src):
-        if src and cand.suffix in (".yaml", ".yml") and cand.is_file():
-            return str(cand.resolve())
-    name = str(meta.get("world") or "")
-    if name in worlds.list_worlds():
-        return name
-    raise InputError(f"{path}: meta.world: the log's world '{name or src}' is not a shipped world "
-                     "and its YAML file was not found (logs without a world cannot be scored)")
+    from sim.log import world_ref
+    ref = world_ref(meta, path)
+    if ref is None:
+        name = meta.get("world") or meta.get("world_source") or ""
+        raise InputError(f"{path}: meta.world: the log's world '{name}' is not a shipped world "
+                         "and its YAML file was not found (logs without a world cannot be scored)")
+    return ref
 
 
 def config_dict(algo: str, path: str | None, overrides: dict | None = None) -> dict:

@@ -55,6 +55,18 @@ def _load_world(name_or_path: str):
     return load_world(name_or_path)
 
 
+def _log_world(log, log_path: str):
+    """The World of a recorded log (sim.log.world_ref), or None: unknown or unreadable."""
+    from sim.log import world_ref
+    ref = world_ref(log.meta, log_path)
+    if ref is None:
+        return None
+    try:
+        return _load_world(ref)
+    except (InputError, OSError):
+        return None
+
+
 def cmd_record(args) -> int:
     from sim.log import write_log
     from sim.record import MIN_COVERAGE, record, recording_problem
@@ -78,15 +90,7 @@ def cmd_show(args) -> int:
     from sim.log import read_log
     from sim.plot import plot_log
     log = read_log(args.log)
-    world = None
-    for ref in (log.meta.get("world_source"), log.meta.get("world")):
-        if not ref:
-            continue
-        try:
-            world = _load_world(ref)
-            break
-        except (InputError, ImportError, OSError):
-            continue
+    world = _log_world(log, args.log)
     out = args.out or str(Path(args.log).with_suffix(".png"))
     check_out_file(out)
     plot_log(log, world, out)
@@ -120,26 +124,21 @@ def cmd_export(args) -> int:
         raise InputError(f"{out}: exists already (a bag is never overwritten)")
     log = read_log(args.log)
     export_bag(log, out, args.format)
-    maps = _write_true_map(log, out)
+    maps = _write_true_map(log, out, args.log)
     print(f"{out}: {log.n_scans} scans, {log.duration:.1f} s" + (f"; true map {maps}" if maps else ""))
     return 0
 
 
-def _write_true_map(log, out: Path) -> str:
+def _write_true_map(log, out: Path, log_path: str) -> str:
     """The world's true map beside the bag (`<bag>_map.yaml` + .pgm), when the log's world is
     known; the YAML path written, or '' for a log without a world."""
     from worlds import rasterize, write_map
-    for ref in (log.meta.get("world_source"), log.meta.get("world")):
-        if not ref:
-            continue
-        try:
-            world = _load_world(ref)
-        except (InputError, ImportError, OSError):
-            continue
-        path = out.with_name(f"{out.stem}_map.yaml")
-        write_map(rasterize(world), path)
-        return str(path)
-    return ""
+    world = _log_world(log, log_path)
+    if world is None:
+        return ""
+    path = out.with_name(f"{out.stem}_map.yaml")
+    write_map(rasterize(world), path)
+    return str(path)
 
 
 def main(argv: list[str] | None = None) -> int:

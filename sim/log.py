@@ -25,7 +25,7 @@ import numpy as np
 from worlds.yamlio import InputError, atomic_write_bytes
 from sim.logcheck import log_problem
 
-__all__ = ["SensorLog", "read_log", "write_log", "value_problem", "FORMAT_VERSION"]
+__all__ = ["SensorLog", "read_log", "write_log", "value_problem", "world_ref", "FORMAT_VERSION"]
 
 FORMAT_VERSION = 1
 
@@ -202,3 +202,17 @@ def read_log(path: str | Path) -> SensorLog:
 def value_problem(log: SensorLog) -> str | None:
     """None if the log's values follow sim.logcheck's rules, else the first problem."""
     return log_problem({name: getattr(log, name) for name in _ARRAYS}, log.meta)
+
+
+def world_ref(meta: dict, log_path: str | Path | None = None) -> str | None:
+    """The world a recorded log was made in, as `worlds.load_world` takes it: its YAML file
+    (meta world_source, as given or beside the log) or its shipped name (meta world); None
+    when neither can be found (a real robot's log)."""
+    from worlds import list_worlds
+    src = str(meta.get("world_source") or "")
+    places = [Path(src)] + ([Path(log_path).parent / src] if log_path is not None else [])
+    for cand in places:
+        if src and cand.suffix in (".yaml", ".yml") and cand.is_file():
+            return str(cand.resolve())
+    name = str(meta.get("world") or "")
+    return name if name in list_worlds() else None

@@ -224,10 +224,8 @@ def _yaw(q) -> float:
 def _planar(tr) -> tuple[float, float, float, bool]:
     """(x, y, yaw, upside_down) of a geometry_msgs/Transform seen from above."""
     q = tr.rotation
-    # the rotated x axis gives the yaw; the rotated z axis pointing down, an upside-down mount
-    xx, xy = 1 - 2 * (q.y * q.y + q.z * q.z), 2 * (q.x * q.y + q.w * q.z)
-    zz = 1 - 2 * (q.x * q.x + q.y * q.y)
-    return tr.translation.x, tr.translation.y, math.atan2(xy, xx), zz < 0
+    # the yaw is the rotated x axis's; the rotated z axis pointing down, an upside-down mount
+    return tr.translation.x, tr.translation.y, _yaw(q), 1 - 2 * (q.x * q.x + q.y * q.y) < 0
 
 
 def _pick(topics: dict, given: str | None, types: tuple, prefer: str, what: str, path: Path,

@@ -43,11 +43,6 @@ def _iter_inputs(log: SensorLog):
         yield scan, odom, imu, (gt_at[i] if gt_at is not None else None)
 
 
-def scans(log: SensorLog) -> list[Scan]:
-    """Every scan of the log as the algorithms see it."""
-    return [scan for scan, *_ in _iter_inputs(log)]
-
-
 def run(slam: Slam, log: SensorLog) -> SlamResult:
     """Replay `log` into `slam`, time every update, call finish(); return the SlamResult."""
     if log.n_scans == 0:
