@@ -7,9 +7,10 @@ import pytest
 KERNELS = {
     "slam._kernels.insert": ["insert_rays_inplace"],
     "slam._kernels.gauss_newton": ["gn_iterate", "gn_normal_equations"],
-    "slam.pf._match_kernel": ["hill_climb", "proposal_moments", "extract_patches"],
-    "slam.pf._map_kernel": ["insert_scans", "mark_touched", "privatize"],
-    "slam.pf._refine_kernel": ["mean_hit_iterate", "mean_hit_patch"],
+    "slam.pf._match_kernel": ["hill_climb", "proposal_moments"],
+    "slam.pf._map_kernel": ["insert_scans", "mark_touched", "privatize", "patch_box", "read_patch"],
+    "slam.pf._refine_kernel": ["mean_hit_iterate"],
+    "slam.pf._proposal_kernel": ["propose_particles"],
     "slam.graph._match_kernel": ["match_lm"],
     "slam.graph._tsdf_kernel": ["tsdf_insert", "estimate_normals"],
     "slam.graph._correlative_kernel": ["bnb_search", "score_candidates", "max_grids"],

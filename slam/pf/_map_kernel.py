@@ -11,12 +11,16 @@ ancestor share the tiles neither has written since; a tile is copied only when a
 writes into a tile that another particle also uses (copy on write, as Gmapping shares
 its map patches through reference-counted pointers).
 
-grid_meta = [ox, oy, resolution, rows, cols, tile]: world x, y of the lower-left corner
-of cell (0, 0), metres per cell, the cell counts of the whole table, cells per tile side.
+grid_meta = [ox, oy, resolution, rows, cols, shift]: world x, y of the lower-left corner
+of cell (0, 0), metres per cell, the cell counts of the whole table, and log2 of the cells
+per tile side (tiles are 2^shift cells wide, so a cell's tile and place in it are shifts and
+masks, not divisions, on the kernels' hottest path).
 
 Kernels (compiled) and their plain references (dense arrays, brute force):
+  patch_box        the box of cells a particle's scan matching reads
+  read_patch       one particle's map over a box as dense arrays <-> read_patch_ref
   ray_cells        Amanatides-Woo cell walk      <-> ray_cells_ref (segment/box clipping)
-  mark_touched     tiles a scan insertion writes
+  mark_touched     the tiles a scan insertion writes that a particle does not own alone
   privatize        copy-on-write of the marked tiles
   insert_scans     count updates along the beams <-> insert_scan_ref (dense counters)
 """
@@ -29,10 +33,62 @@ from numba import njit
 
 from slam._kernels.insert import axis_walk
 
-__all__ = ["N_FIELDS", "ray_cells", "mark_touched", "privatize", "insert_scans",
+__all__ = ["N_FIELDS", "patch_box", "read_patch", "read_patch_ref", "ray_cells", "mark_touched",
+           "privatize", "insert_scans",
            "beam_world", "ray_cells_ref", "insert_scan_ref"]
 
 N_FIELDS = 4
+
+
+@njit(cache=True, nogil=True)
+def patch_box(table, grid_meta, pose, half, box):
+    """Into box (4,) int64: first row, column, rows, columns of the cells within `half` cells
+    of pose (3,), clipped to the bounding box of the tiles the particle's table (TR, TC)
+    has written."""
+    ox, oy, res, shift = grid_meta[0], grid_meta[1], grid_meta[2], int(grid_meta[5])
+    r = int(math.floor((pose[1] - oy) / res))
+    c = int(math.floor((pose[0] - ox) / res))
+    r0, r1, c0, c1 = r - half, r + half, c - half, c + half
+    a0, a1, b0, b1 = table.shape[0], -1, table.shape[1], -1
+    for a in range(table.shape[0]):
+        for b in range(table.shape[1]):
+            if table[a, b] >= 0:
+                a0, a1 = min(a0, a), max(a1, a)
+                b0, b1 = min(b0, b), max(b1, b)
+    if a1 >= 0:
+        r0, r1 = max(r0, a0 << shift), min(r1, (a1 + 1) << shift)
+        c0, c1 = max(c0, b0 << shift), min(c1, (b1 + 1) << shift)
+    box[0], box[1], box[2], box[3] = r0, c0, max(r1 - r0, 0), max(c1 - c0, 0)
+
+
+@njit(cache=True, nogil=True)
+def read_patch(table, pool, grid_meta, box, prob, hits, mean_off):
+    """One particle's counters over box (first row, column, rows, columns) as dense float32
+    arrays, into the first rows x columns of prob, hits (R, C) and mean_off (R, C, 2):
+    hits / visits (0 where unvisited), the hit count, and the mean hit point's offset (m)
+    from the cell's lower-left corner (0 where no hit). Cells outside the grid or in tiles
+    never written read as unvisited."""
+    rows, cols, shift = int(grid_meta[3]), int(grid_meta[4]), int(grid_meta[5])
+    in_tile = (1 << shift) - 1
+    r0, c0 = box[0], box[1]
+    for i in range(box[2]):
+        r = r0 + i
+        for j in range(box[3]):
+            c = c0 + j
+            t = -1
+            if 0 <= r < rows and 0 <= c < cols:
+                t = table[r >> shift, c >> shift]
+            h = v = np.float32(0.0)
+            if t >= 0:
+                h = pool[t, r & in_tile, c & in_tile, 0]
+                v = pool[t, r & in_tile, c & in_tile, 1]
+            prob[i, j] = h / v if v > 0 else 0.0
+            hits[i, j] = h
+            if h > 0:
+                mean_off[i, j, 0] = pool[t, r & in_tile, c & in_tile, 2] / h
+                mean_off[i, j, 1] = pool[t, r & in_tile, c & in_tile, 3] / h
+            else:
+                mean_off[i, j, 0] = mean_off[i, j, 1] = 0.0
 
 
 @njit(cache=True, nogil=True)
@@ -100,15 +156,20 @@ def ray_buffer_len(poses, origin, ends, res):
 
 
 @njit(cache=True, nogil=True)
-def mark_touched(n_tile_rows, n_tile_cols, grid_meta, poses, origin, ends):
-    """(N, TR, TC) bool: the tiles that inserting `ends` at each of `poses` writes to.
+def mark_touched(tables, refcount, grid_meta, poses, origin, ends):
+    """(M, 3) int64 particle, tile row, tile column of the tiles that inserting `ends` at
+    each of `poses` writes to and that the particle does not own alone (never written, or
+    shared with another particle): the tiles to privatize before the insertion.
 
-    poses: (N, 3) robot poses; origin: (2,) lidar in the robot frame; ends: (K, 2) robot frame.
+    tables: (N, TR, TC) int32; refcount: (cap,) int32; poses: (N, 3) robot poses; origin:
+    (2,) lidar in the robot frame; ends: (K, 2) robot frame.
     """
     ox, oy, res = grid_meta[0], grid_meta[1], grid_meta[2]
-    rows, cols, tile = int(grid_meta[3]), int(grid_meta[4]), int(grid_meta[5])
+    rows, cols, shift = int(grid_meta[3]), int(grid_meta[4]), int(grid_meta[5])
     n = poses.shape[0]
-    mask = np.zeros((n, n_tile_rows, n_tile_cols), dtype=np.bool_)
+    seen = np.zeros(tables.shape, dtype=np.bool_)
+    todo = np.empty((64, 3), dtype=np.int64)
+    n_todo = 0
     m = ray_buffer_len(poses, origin, ends, res)
     buf_c = np.empty(m, dtype=np.int64)
     buf_r = np.empty(m, dtype=np.int64)
@@ -121,9 +182,25 @@ def mark_touched(n_tile_rows, n_tile_cols, grid_meta, poses, origin, ends):
             for i in range(cnt):
                 c = buf_c[i]
                 r = buf_r[i]
-                if 0 <= r < rows and 0 <= c < cols:
-                    mask[p, r // tile, c // tile] = True
-    return mask
+                if r < 0 or r >= rows or c < 0 or c >= cols:
+                    continue
+                tr = r >> shift
+                tc = c >> shift
+                if seen[p, tr, tc]:
+                    continue
+                seen[p, tr, tc] = True
+                t = tables[p, tr, tc]
+                if t >= 0 and refcount[t] == 1:
+                    continue
+                if n_todo == todo.shape[0]:
+                    grown = np.empty((2 * n_todo, 3), dtype=np.int64)
+                    grown[:n_todo] = todo
+                    todo = grown
+                todo[n_todo, 0] = p
+                todo[n_todo, 1] = tr
+                todo[n_todo, 2] = tc
+                n_todo += 1
+    return todo[:n_todo].copy()
 
 
 @njit(cache=True, nogil=True)
@@ -164,7 +241,8 @@ def insert_scans(tables, pool, grid_meta, poses, origin, ends, hit):
     origin: (2,) lidar in the robot frame; ends: (K, 2) beam ends, robot frame; hit: (K,) bool.
     """
     ox, oy, res = grid_meta[0], grid_meta[1], grid_meta[2]
-    rows, cols, tile = int(grid_meta[3]), int(grid_meta[4]), int(grid_meta[5])
+    rows, cols, shift = int(grid_meta[3]), int(grid_meta[4]), int(grid_meta[5])
+    in_tile = (1 << shift) - 1
     n = poses.shape[0]
     m = ray_buffer_len(poses, origin, ends, res)
     buf_c = np.empty(m, dtype=np.int64)
@@ -180,11 +258,11 @@ def insert_scans(tables, pool, grid_meta, poses, origin, ends, hit):
                 r = buf_r[i]
                 if r < 0 or r >= rows or c < 0 or c >= cols:
                     continue
-                t = tables[p, r // tile, c // tile]
+                t = tables[p, r >> shift, c >> shift]
                 if t < 0:
                     continue
-                lr = r % tile
-                lc = c % tile
+                lr = r & in_tile
+                lc = c & in_tile
                 pool[t, lr, lc, 1] += 1.0
                 if i == cnt - 1 and hit[k]:
                     pool[t, lr, lc, 0] += 1.0
@@ -193,6 +271,22 @@ def insert_scans(tables, pool, grid_meta, poses, origin, ends, hit):
 
 
 # --- references ---------------------------------------------------------------------------
+
+def read_patch_ref(dense: np.ndarray, box) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """read_patch on dense counters (rows, cols, 4): (prob, hits, mean_off) of the box."""
+    r0, c0, nr, nc = (int(v) for v in box)
+    rows, cols = dense.shape[:2]
+    cnt = np.zeros((nr, nc, 4), dtype=np.float32)
+    rr0, rr1 = max(r0, 0), min(r0 + nr, rows)
+    cc0, cc1 = max(c0, 0), min(c0 + nc, cols)
+    if rr1 > rr0 and cc1 > cc0:
+        cnt[rr0 - r0:rr1 - r0, cc0 - c0:cc1 - c0] = dense[rr0:rr1, cc0:cc1]
+    h, v = cnt[..., 0], cnt[..., 1]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        prob = np.where(v > 0, h / v, np.float32(0))
+        off = np.where(h[..., None] > 0, cnt[..., 2:] / h[..., None], np.float32(0))
+    return prob.astype(np.float32), h.copy(), off.astype(np.float32)
+
 
 def ray_cells_ref(u0: float, v0: float, u1: float, v1: float) -> set[tuple[int, int]]:
     """Set of (col, row) cells whose square the segment crosses with positive length

@@ -14,15 +14,16 @@ params (float64 array, one small array instead of many arguments):
     [5] lstep  [6] astep   [7] iterations
     [8] llsamplerange  [9] llsamplestep  [10] lasamplerange  [11] lasamplestep
 
-The compiled kernels score against dense patches of each particle's map around its pose
-(extract_patches: the occupied flags and mean hit points, copied once per update), which
-makes the many evaluations of the hill climbing plain array reads.
+The compiled kernels score against a dense patch of one particle's map around its pose
+(slam.pf._map_kernel.read_patch: hits / visits and the mean hit points' offsets in their cells,
+read once per update), which makes the many evaluations of the hill climbing plain array
+reads. A cell is occupied when hits / visits > fullness (so fullness >= 0).
 
 Kernels and references:
-  extract_patches + score_and_likelihood(one pose) <-> score_and_likelihood_ref (dense counters)
-  hill_climb (all particles)          <-> hill_climb_ref (plain loop over the reference score)
+  score_and_likelihood (one pose)     <-> score_and_likelihood_ref (dense counters)
+  hill_climb (one particle)           <-> hill_climb_ref (plain loop over the reference score)
   grid_likelihoods (proposal grid)    <-> score_and_likelihood at each grid pose
-  proposal_moments (all particles)    <-> proposal_moments_ref
+  proposal_moments (one particle)     <-> proposal_moments_ref
 """
 from __future__ import annotations
 
@@ -31,7 +32,7 @@ import math
 import numpy as np
 from numba import njit
 
-__all__ = ["PARAMS", "make_params", "extract_patches", "score_and_likelihood", "beam_cache",
+__all__ = ["PARAMS", "make_params", "score_and_likelihood", "beam_cache",
            "score_above", "hill_climb", "grid_likelihoods", "proposal_moments",
            "score_and_likelihood_ref", "hill_climb_ref", "proposal_moments_ref"]
 
@@ -42,52 +43,6 @@ PARAMS = ("sigma", "lsigma", "null_likelihood", "fullness", "kernel", "lstep", "
 def make_params(**kw) -> np.ndarray:
     """The params array from keyword values named as in PARAMS (all required)."""
     return np.array([float(kw[k]) for k in PARAMS])
-
-
-@njit(cache=True, nogil=True)
-def extract_patches(tables, pool, grid_meta, boxes, fullness):
-    """Dense views of each particle's map in a box of cells, for fast repeated scoring.
-
-    boxes: (N, 4) int64 first row, first column, rows, columns of each particle's box.
-    Returns occ (N, R, C) int8 (1 where n / visits > fullness), mean (N, R, C, 2) float32
-    world x, y of the mean hit point, corner (N, 2) int64 (the boxes' first row, column);
-    R, C are the largest box sizes. Cells outside the grid or a box count as unknown.
-    """
-    ox, oy, res = grid_meta[0], grid_meta[1], grid_meta[2]
-    rows, cols, tile = int(grid_meta[3]), int(grid_meta[4]), int(grid_meta[5])
-    n = boxes.shape[0]
-    size_r = max(1, boxes[:, 2].max())
-    size_c = max(1, boxes[:, 3].max())
-    occ = np.zeros((n, size_r, size_c), dtype=np.int8)
-    mean = np.zeros((n, size_r, size_c, 2), dtype=np.float32)
-    corner = np.empty((n, 2), dtype=np.int64)
-    for p in range(n):
-        r0 = boxes[p, 0]
-        c0 = boxes[p, 1]
-        corner[p, 0] = r0
-        corner[p, 1] = c0
-        for i in range(boxes[p, 2]):
-            r = r0 + i
-            if r < 0 or r >= rows:
-                continue
-            tr = r // tile
-            lr = r - tr * tile
-            for j in range(boxes[p, 3]):
-                c = c0 + j
-                if c < 0 or c >= cols:
-                    continue
-                tc = c // tile
-                t = tables[p, tr, tc]
-                if t < 0:
-                    continue
-                lc = c - tc * tile
-                hits = pool[t, lr, lc, 0]
-                visits = pool[t, lr, lc, 1]
-                if visits > 0 and hits / visits > fullness:
-                    occ[p, i, j] = 1
-                    mean[p, i, j, 0] = ox + c * res + pool[t, lr, lc, 2] / hits
-                    mean[p, i, j, 1] = oy + r * res + pool[t, lr, lc, 3] / hits
-    return occ, mean, corner
 
 
 # Reordered floating point (no ninf/nnan: `best` starts at inf) is about 10 % faster on the
@@ -108,12 +63,22 @@ def _beam_cells(ox, oy, res, pose, c, s, hit, free):
     return hx, hy, hr, hc, dr, dc
 
 
+@njit(cache=True)
+def _mean_hit(corner, grid_meta, r, c, mean_off):
+    """World x, y of the mean hit point of patch cell (r, c), rounded to float32 (the
+    counters' precision), in strict IEEE order wherever it is read from."""
+    res = grid_meta[2]
+    return (np.float32(grid_meta[0] + (corner[1] + c) * res + mean_off[r, c, 0]),
+            np.float32(grid_meta[1] + (corner[0] + r) * res + mean_off[r, c, 1]))
+
+
 @njit(cache=True, fastmath=_FAST, inline="always")
-def _candidates(occ, mean, hr, hc, dr, dc, kernel, cand_x, cand_y):
-    """Mean hit points of the cells in the (2 kernel + 1)^2 window around cell (hr, hc) that
-    are occupied while the cell at offset (dr, dc) from them (the free point's) is not, into
-    cand_x, cand_y in window order; returns their count."""
-    size_r, size_c = occ.shape
+def _candidates(prob, mean_off, corner, grid_meta, fullness, hr, hc, dr, dc, kernel, cand_x,
+                cand_y):
+    """Mean hit points of the cells in the (2 kernel + 1)^2 window around patch cell (hr, hc)
+    that are occupied while the cell at offset (dr, dc) from them (the free point's) is not,
+    into cand_x, cand_y in window order; returns their count."""
+    size_r, size_c = prob.shape
     n = 0
     for yy in range(-kernel, kernel + 1):
         r = hr + yy
@@ -121,14 +86,13 @@ def _candidates(occ, mean, hr, hc, dr, dc, kernel, cand_x, cand_y):
             continue
         for xx in range(-kernel, kernel + 1):
             cc = hc + xx
-            if cc < 0 or cc >= size_c or occ[r, cc] == 0:
+            if cc < 0 or cc >= size_c or not prob[r, cc] > fullness:
                 continue
             fr = r + dr
             fc = cc + dc
-            if 0 <= fr < size_r and 0 <= fc < size_c and occ[fr, fc] != 0:
+            if 0 <= fr < size_r and 0 <= fc < size_c and prob[fr, fc] > fullness:
                 continue
-            cand_x[n] = mean[r, cc, 0]
-            cand_y[n] = mean[r, cc, 1]
+            cand_x[n], cand_y[n] = _mean_hit(corner, grid_meta, r, cc, mean_off)
             n += 1
     return n
 
@@ -145,13 +109,13 @@ def _nearest_d2(hx, hy, cand_x, cand_y, n):
 
 
 @njit(cache=True, fastmath=_FAST, nogil=True)
-def score_and_likelihood(occ, mean, corner, grid_meta, pose, hits, frees, params):
+def score_and_likelihood(prob, mean_off, corner, grid_meta, pose, hits, frees, params):
     """(score, log likelihood) of one robot pose (3,) against one particle's map patch.
 
-    occ: (S, S) int8; mean: (S, S, 2) float32; corner: (2,) row, col of the patch in the
-    grid (see extract_patches); hits, frees: (K, 2) robot frame, m.
+    prob: (R, C) hits / visits, mean_off: (R, C, 2) (see read_patch); corner: (2,) row,
+    column of the patch in the grid; hits, frees: (K, 2) robot frame, m.
     """
-    sigma, lsigma, null_l = params[0], params[1], params[2]
+    sigma, lsigma, null_l, fullness = params[0], params[1], params[2], params[3]
     kernel = int(params[4])
     res = grid_meta[2]
     ox = grid_meta[0] + corner[1] * res
@@ -165,7 +129,8 @@ def score_and_likelihood(occ, mean, corner, grid_meta, pose, hits, frees, params
     no_hit = null_l / lsigma
     for k in range(hits.shape[0]):
         hx, hy, hr, hc, dr, dc = _beam_cells(ox, oy, res, pose, c, s, hits[k], frees[k])
-        n = _candidates(occ, mean, hr, hc, dr, dc, kernel, cand_x, cand_y)
+        n = _candidates(prob, mean_off, corner, grid_meta, fullness, hr, hc, dr, dc, kernel,
+                        cand_x, cand_y)
         best = _nearest_d2(hx, hy, cand_x, cand_y, n)
         if best < np.inf:
             score += math.exp(-best / sigma)
@@ -190,8 +155,8 @@ def beam_cache(n_beams, kernel):
 
 
 @njit(cache=True, fastmath=_FAST, nogil=True)
-def score_above(occ, mean, corner, grid_meta, pose, hits, frees, params, bound, keys, count, cand_x,
-                cand_y):
+def score_above(prob, mean_off, corner, grid_meta, pose, hits, frees, params, bound, keys, count,
+                cand_x, cand_y):
     """score_and_likelihood's score when it exceeds `bound`; otherwise some value <= bound,
     returned as soon as the beams left (at most 1 each) cannot lift the sum above it.
 
@@ -201,7 +166,7 @@ def score_above(occ, mean, corner, grid_meta, pose, hits, frees, params, bound, 
     (keys, count, cand_x, cand_y) and gathered again only when those cells change. A score
     above the bound is the same sum, in the same order, as score_and_likelihood's.
     """
-    sigma = params[0]
+    sigma, fullness = params[0], params[3]
     kernel = int(params[4])
     res = grid_meta[2]
     ox = grid_meta[0] + corner[1] * res
@@ -218,7 +183,8 @@ def score_above(occ, mean, corner, grid_meta, pose, hits, frees, params, bound, 
             keys[k, 1] = hc
             keys[k, 2] = dr
             keys[k, 3] = dc
-            count[k] = _candidates(occ, mean, hr, hc, dr, dc, kernel, cand_x[k], cand_y[k])
+            count[k] = _candidates(prob, mean_off, corner, grid_meta, fullness, hr, hc, dr, dc,
+                                   kernel, cand_x[k], cand_y[k])
         best = _nearest_d2(hx, hy, cand_x[k], cand_y[k], count[k])
         if best < np.inf:
             score += math.exp(-best / sigma)
@@ -228,11 +194,14 @@ def score_above(occ, mean, corner, grid_meta, pose, hits, frees, params, bound, 
 
 
 @njit(cache=True, nogil=True)
-def _climb_one(occ, mean, corner, grid_meta, init, hits, frees, params):
-    """Gmapping's optimize(): axis moves x, y, yaw; halve the steps when none improves."""
+def hill_climb(prob, mean_off, corner, grid_meta, init, hits, frees, params):
+    """Gmapping's optimize(): scan-match one particle against its map patch from pose init
+    (3,) by axis moves in x, y and yaw, halving the steps when none improves. Returns the
+    matched pose (3,) and its score."""
     ldelta, adelta, iterations = params[5], params[6], int(params[7])
     cur = init.copy()
-    cur_score, _ = score_and_likelihood(occ, mean, corner, grid_meta, cur, hits, frees, params)
+    cur_score, _ = score_and_likelihood(prob, mean_off, corner, grid_meta, cur, hits, frees,
+                                        params)
     keys, count, cand_x, cand_y = beam_cache(hits.shape[0], int(params[4]))
     best_score = -1.0
     refinement = 0
@@ -265,7 +234,7 @@ def _climb_one(occ, mean, corner, grid_meta, init, hits, frees, params):
                 trial[2] += adelta
             else:
                 trial[2] -= adelta
-            sc = score_above(occ, mean, corner, grid_meta, trial, hits, frees, params, cur_score,
+            sc = score_above(prob, mean_off, corner, grid_meta, trial, hits, frees, params, cur_score,
                              keys, count, cand_x, cand_y)
             if sc > cur_score:
                 cur_score = sc
@@ -278,24 +247,9 @@ def _climb_one(occ, mean, corner, grid_meta, init, hits, frees, params):
     return cur, best_score
 
 
-@njit(cache=True, nogil=True)
-def hill_climb(occ, mean, corner, grid_meta, poses, hits, frees, params):
-    """Scan-match every particle against its own map patch from its pose.
-
-    occ, mean, corner: from extract_patches; poses: (N, 3). Returns matched poses (N, 3)
-    and scores (N,).
-    """
-    n = poses.shape[0]
-    out = np.empty((n, 3))
-    scores = np.empty(n)
-    for p in range(n):
-        out[p], scores[p] = _climb_one(occ[p], mean[p], corner[p], grid_meta, poses[p], hits,
-                                       frees, params)
-    return out, scores
-
-
 @njit(cache=True, fastmath=_FAST, nogil=True)
-def grid_likelihoods(occ, mean, corner, grid_meta, pose, nl, ls, na, ast, hits, frees, params, out):
+def grid_likelihoods(prob, mean_off, corner, grid_meta, pose, nl, ls, na, ast, hits, frees, params,
+                     out):
     """score_and_likelihood's log likelihood at every pose of the proposal grid pose +
     (ix ls, iy ls, ia ast), |ix|, |iy| <= nl, |ia| <= na, into out[j], j in (ix, iy, ia)
     order.
@@ -305,7 +259,7 @@ def grid_likelihoods(occ, mean, corner, grid_meta, pose, nl, ls, na, ast, hits, 
     those are gathered again only when the cells change. Each pose's sum runs over the beams
     in the same order as score_and_likelihood's.
     """
-    lsigma, null_l = params[1], params[2]
+    lsigma, null_l, fullness = params[1], params[2], params[3]
     kernel = int(params[4])
     no_hit = null_l / lsigma
     res = grid_meta[2]
@@ -341,72 +295,66 @@ def grid_likelihoods(occ, mean, corner, grid_meta, pose, nl, ls, na, ast, hits, 
                             and dr == key_dr):
                         key_set = True
                         key_hc, key_hr, key_dc, key_dr = hc, hr, dc, dr
-                        n_cand = _candidates(occ, mean, hr, hc, dr, dc, kernel, cand_x, cand_y)
+                        n_cand = _candidates(prob, mean_off, corner, grid_meta, fullness, hr, hc,
+                                             dr, dc, kernel, cand_x, cand_y)
                     best = _nearest_d2(hx, hy, cand_x, cand_y, n_cand)
                     j = ((ix + nl) * (2 * nl + 1) + iy + nl) * n_ang + ia + na
                     out[j] += -best / lsigma if best < np.inf else no_hit
 
 
 @njit(cache=True, nogil=True)
-def proposal_moments(occ, mean, corner, grid_meta, poses, prior_mean, prior_std, hits, frees,
+def proposal_moments(prob, mean_off, corner, grid_meta, pose, prior_mean, prior_std, hits, frees,
                      params):
-    """Gaussian proposal around each matched pose from likelihood x motion prior.
+    """Gaussian proposal around one particle's matched pose from likelihood x motion prior, on
+    its map patch (see score_and_likelihood).
 
-    At the poses of the grid matched + (dx, dy, dyaw), dx, dy in -llsamplerange ..
+    At the poses of the grid pose + (dx, dy, dyaw), dx, dy in -llsamplerange ..
     llsamplerange by llsamplestep, dyaw likewise with the angular values, the target is
-    exp(log likelihood + log N(pose; prior_mean, diag(prior_std^2))). poses, prior_mean,
-    prior_std: (N, 3). Returns the weighted mean (N, 3), covariance (N, 3, 3) and log eta
-    (N,), eta = the sum of the target over the grid (the normaliser the particle's weight
-    is multiplied by).
+    exp(log likelihood + log N(pose; prior_mean, diag(prior_std^2))). pose, prior_mean,
+    prior_std: (3,). Returns the weighted mean (3,), covariance (3, 3) and log eta, eta =
+    the sum of the target over the grid (the normaliser the particle's weight is multiplied
+    by).
     """
     lr, ls, ar, ast = params[8], params[9], params[10], params[11]
     nl = int(round(lr / ls)) if ls > 0 else 0
     na = int(round(ar / ast)) if ast > 0 else 0
     m = (2 * nl + 1) * (2 * nl + 1) * (2 * na + 1)
-    n = poses.shape[0]
-    means = np.empty((n, 3))
-    covs = np.empty((n, 3, 3))
-    log_eta = np.empty(n)
     samples = np.empty((m, 3))
     logt = np.empty(m)
     lik = np.empty(m)
-    for p in range(n):
-        grid_likelihoods(occ[p], mean[p], corner[p], grid_meta, poses[p], nl, ls, na, ast, hits,
-                         frees, params, lik)
-        j = 0
-        for ix in range(-nl, nl + 1):
-            for iy in range(-nl, nl + 1):
-                for ia in range(-na, na + 1):
-                    samples[j, 0] = poses[p, 0] + ix * ls
-                    samples[j, 1] = poses[p, 1] + iy * ls
-                    samples[j, 2] = poses[p, 2] + ia * ast
-                    lp = 0.0
-                    for d in range(3):
-                        e = samples[j, d] - prior_mean[p, d]
-                        if d == 2:
-                            e = (e + math.pi) % (2 * math.pi) - math.pi
-                        lp += -0.5 * (e / prior_std[p, d]) ** 2 - math.log(prior_std[p, d])
-                    logt[j] = lik[j] + lp
-                    j += 1
-        lmax = logt.max()
-        wsum = 0.0
-        mu = np.zeros(3)
-        for j in range(m):
-            w = math.exp(logt[j] - lmax)
-            wsum += w
-            mu += w * samples[j]
-        mu /= wsum
-        cov = np.zeros((3, 3))
-        for j in range(m):
-            w = math.exp(logt[j] - lmax) / wsum
-            e = samples[j] - mu
-            for a in range(3):
-                for b in range(3):
-                    cov[a, b] += w * e[a] * e[b]
-        means[p] = mu
-        covs[p] = cov
-        log_eta[p] = lmax + math.log(wsum)
-    return means, covs, log_eta
+    grid_likelihoods(prob, mean_off, corner, grid_meta, pose, nl, ls, na, ast, hits, frees, params,
+                     lik)
+    j = 0
+    for ix in range(-nl, nl + 1):
+        for iy in range(-nl, nl + 1):
+            for ia in range(-na, na + 1):
+                samples[j, 0] = pose[0] + ix * ls
+                samples[j, 1] = pose[1] + iy * ls
+                samples[j, 2] = pose[2] + ia * ast
+                lp = 0.0
+                for d in range(3):
+                    e = samples[j, d] - prior_mean[d]
+                    if d == 2:
+                        e = (e + math.pi) % (2 * math.pi) - math.pi
+                    lp += -0.5 * (e / prior_std[d]) ** 2 - math.log(prior_std[d])
+                logt[j] = lik[j] + lp
+                j += 1
+    lmax = logt.max()
+    wsum = 0.0
+    mu = np.zeros(3)
+    for j in range(m):
+        w = math.exp(logt[j] - lmax)
+        wsum += w
+        mu += w * samples[j]
+    mu /= wsum
+    cov = np.zeros((3, 3))
+    for j in range(m):
+        w = math.exp(logt[j] - lmax) / wsum
+        e = samples[j] - mu
+        for a in range(3):
+            for b in range(3):
+                cov[a, b] += w * e[a] * e[b]
+    return mu, cov, lmax + math.log(wsum)
 
 
 # --- references (dense counters (rows, cols, 4) as insert_scan_ref builds them) -------------

@@ -17,8 +17,11 @@ offset of the mean hit points from the cell centres around it (the four cells of
 interpolation), taken along the map gradient only (the wall's normal), so the ridge lies at
 the mean hit points.
 
-mean_hit_patch, mean_hit_normal_equations, mean_hit_iterate: compiled; mean_hit_patch_ref,
-mean_hit_normal_equations_ref: numpy, for tests.
+The map patch is slam.pf._map_kernel.read_patch's: prob = hits / visits, the hit counts and
+each cell's mean hit point as an offset from its lower-left corner.
+
+mean_hit_normal_equations, mean_hit_iterate: compiled; mean_hit_normal_equations_ref: numpy,
+for tests.
 """
 from __future__ import annotations
 
@@ -28,75 +31,14 @@ from numba import njit
 from slam._kernels.gauss_newton import gn_update
 from slam._kernels.interp import add_normal_row, interp_point, interp_value_grad_ref, symmetrize_upper
 
-__all__ = ["mean_hit_patch", "mean_hit_patch_ref",
-           "mean_hit_normal_equations", "mean_hit_normal_equations_ref", "mean_hit_iterate"]
-
-
-@njit(cache=True, inline="always")
-def _cell_slot(table, rows, cols, tile, r, c):
-    """Pool tile index, row and column in the tile of grid cell (r, c); tile -1 when the cell
-    is outside the grid or its tile was never written."""
-    if r < 0 or r >= rows or c < 0 or c >= cols:
-        return -1, 0, 0
-    tr = r // tile
-    tc = c // tile
-    return table[tr, tc], r - tr * tile, c - tc * tile
-
+__all__ = ["mean_hit_normal_equations", "mean_hit_normal_equations_ref", "mean_hit_iterate"]
 
 
 @njit(cache=True, nogil=True)
-def mean_hit_patch(table, pool, grid_meta, box):
-    """hits / visits over a box of cells (0 where unvisited) with, per cell, the
-    offset (m) of its mean hit point from the cell centre and its hit count.
-
-    Returns prob, off_x, off_y, hits, each (rows, cols) float64 of the box; the offsets are 0
-    where a cell has no hit.
-    """
-    rows, cols, tile = int(grid_meta[3]), int(grid_meta[4]), int(grid_meta[5])
-    res = grid_meta[2]
-    r0, c0, nr, nc = box[0], box[1], box[2], box[3]
-    prob = np.zeros((nr, nc))
-    off_x = np.zeros((nr, nc))
-    off_y = np.zeros((nr, nc))
-    hits = np.zeros((nr, nc))
-    for i in range(nr):
-        for j in range(nc):
-            t, lr, lc = _cell_slot(table, rows, cols, tile, r0 + i, c0 + j)
-            if t < 0:
-                continue
-            h = pool[t, lr, lc, 0]
-            v = pool[t, lr, lc, 1]
-            if v > 0:
-                prob[i, j] = h / v
-            if h > 0:
-                hits[i, j] = h
-                # the pool keeps the hit points' sum relative to the cell's lower-left corner
-                off_x[i, j] = pool[t, lr, lc, 2] / h - 0.5 * res
-                off_y[i, j] = pool[t, lr, lc, 3] / h - 0.5 * res
-    return prob, off_x, off_y, hits
-
-
-def mean_hit_patch_ref(dense: np.ndarray, box, resolution: float):
-    """Reference of mean_hit_patch on dense counters (rows, cols, 4)."""
-    r0, c0, nr, nc = (int(v) for v in box)
-    rows, cols = dense.shape[:2]
-    cnt = np.zeros((nr, nc, 4))
-    rr0, rr1 = max(r0, 0), min(r0 + nr, rows)
-    cc0, cc1 = max(c0, 0), min(c0 + nc, cols)
-    if rr1 > rr0 and cc1 > cc0:
-        cnt[rr0 - r0:rr1 - r0, cc0 - c0:cc1 - c0] = dense[rr0:rr1, cc0:cc1]
-    h, v = cnt[..., 0], cnt[..., 1]
-    with np.errstate(invalid="ignore", divide="ignore"):
-        prob = np.where(v > 0, h / v, 0.0)
-        off_x = np.where(h > 0, cnt[..., 2] / h - resolution / 2, 0.0)
-        off_y = np.where(h > 0, cnt[..., 3] / h - resolution / 2, 0.0)
-    return prob, off_x, off_y, h.copy()
-
-
-@njit(cache=True, nogil=True)
-def _normal_offset(prob, off_x, off_y, hits, ox, oy, res, rows, cols, x, y):
-    """The hits-weighted mean offset of the four cells around (x, y), along the map gradient
-    there; (0, 0) where none of them has a hit or the map is flat."""
+def _normal_offset(prob, hits, mean_off, ox, oy, res, rows, cols, x, y):
+    """The hits-weighted mean offset of the four cells' mean hit points from their centres
+    around (x, y), along the map gradient there; (0, 0) where none of them has a hit or the
+    map is flat."""
     u = (x - ox) / res - 0.5
     v = (y - oy) / res - 0.5
     i = int(np.floor(u))
@@ -112,8 +54,8 @@ def _normal_offset(prob, off_x, off_y, hits, ox, oy, res, rows, cols, x, y):
         for b in range(2):
             w = (fv if a == 1 else 1.0 - fv) * (fu if b == 1 else 1.0 - fu) * hits[j + a, i + b]
             wsum += w
-            dx += w * off_x[j + a, i + b]
-            dy += w * off_y[j + a, i + b]
+            dx += w * (mean_off[j + a, i + b, 0] - 0.5 * res)
+            dy += w * (mean_off[j + a, i + b, 1] - 0.5 * res)
     if wsum <= 0.0:
         return 0.0, 0.0
     _, gx, gy = interp_point(prob, ox, oy, res, rows, cols, x, y)
@@ -125,9 +67,11 @@ def _normal_offset(prob, off_x, off_y, hits, ox, oy, res, rows, cols, x, y):
 
 
 @njit(cache=True, nogil=True)
-def mean_hit_normal_equations(prob, off_x, off_y, hits, grid_meta, pts_robot, pose):
+def mean_hit_normal_equations(prob, hits, mean_off, grid_meta, pts_robot, pose):
     """Hector's normal equations (slam/_kernels/gauss_newton.py) with the map read at each point
-    moved back by its normal offset to the mean hit points. Returns H (3, 3), g (3,), cost."""
+    moved back by its normal offset to the mean hit points. prob, hits (R, C), mean_off
+    (R, C, 2): the patch (read_patch); grid_meta: its [ox, oy, resolution, R, C].
+    Returns H (3, 3), g (3,), cost."""
     ox, oy, res = grid_meta[0], grid_meta[1], grid_meta[2]
     rows, cols = int(grid_meta[3]), int(grid_meta[4])
     c, s = np.cos(pose[2]), np.sin(pose[2])
@@ -138,7 +82,7 @@ def mean_hit_normal_equations(prob, off_x, off_y, hits, grid_meta, pts_robot, po
         px, py = pts_robot[k, 0], pts_robot[k, 1]
         wx = pose[0] + c * px - s * py
         wy = pose[1] + s * px + c * py
-        dx, dy = _normal_offset(prob, off_x, off_y, hits, ox, oy, res, rows, cols, wx, wy)
+        dx, dy = _normal_offset(prob, hits, mean_off, ox, oy, res, rows, cols, wx, wy)
         m, gx, gy = interp_point(prob, ox, oy, res, rows, cols, wx - dx, wy - dy)
         r = 1.0 - m
         cost += r * r
@@ -147,9 +91,12 @@ def mean_hit_normal_equations(prob, off_x, off_y, hits, grid_meta, pts_robot, po
     return H, g, cost
 
 
-def mean_hit_normal_equations_ref(prob, off_x, off_y, hits, grid_meta, pts_robot, pose):
+def mean_hit_normal_equations_ref(prob, hits, mean_off, grid_meta, pts_robot, pose):
     """Reference of mean_hit_normal_equations, vectorised with numpy."""
     ox, oy, res = grid_meta[0], grid_meta[1], grid_meta[2]
+    prob, hits = np.asarray(prob, dtype=np.float64), np.asarray(hits, dtype=np.float64)
+    off_x = np.where(hits > 0, mean_off[..., 0] - 0.5 * res, 0.0)
+    off_y = np.where(hits > 0, mean_off[..., 1] - 0.5 * res, 0.0)
     rows, cols = int(grid_meta[3]), int(grid_meta[4])
     c, s = np.cos(pose[2]), np.sin(pose[2])
     pts = np.asarray(pts_robot, dtype=np.float64).reshape(-1, 2)
@@ -180,13 +127,13 @@ def mean_hit_normal_equations_ref(prob, off_x, off_y, hits, grid_meta, pts_robot
 
 
 @njit(cache=True, nogil=True)
-def mean_hit_iterate(prob, off_x, off_y, hits, grid_meta, pts_robot, pose, iterations,
+def mean_hit_iterate(prob, hits, mean_off, grid_meta, pts_robot, pose, iterations,
                      max_angle_step, prior, prior_info):
     """gauss_newton.gn_iterate's steps (gn_update) on mean_hit_normal_equations; returns the (3,)
     pose."""
     est = pose.copy()
     for _ in range(iterations):
-        H, g, _ = mean_hit_normal_equations(prob, off_x, off_y, hits, grid_meta, pts_robot, est)
+        H, g, _ = mean_hit_normal_equations(prob, hits, mean_off, grid_meta, pts_robot, est)
         if not gn_update(H, g, est, prior, prior_info, max_angle_step):
             break
     return est

@@ -80,7 +80,7 @@ class PfConfig:
     max_range: float = 0.0            # maxRange (m): readings at/after it are no return (0: sensor's)
     delta: float = 0.05               # delta: map resolution (m)
     map_extent: float = 50.0          # xmin/xmax/ymin/ymax: half side (m) of the square map around the start
-    tile: int = 16                    # cells per side of a copy-on-write map tile
+    tile: int = 16                    # cells per side of a copy-on-write map tile (a power of two)
     deskew: bool = True               # not in Gmapping: undo the motion during a revolution (from odometry)
     smooth_beams: int = 4             # not in Gmapping: each return is the mean point of 2k+1 neighbouring beams
     motion: MotionConfig = field(default_factory=MotionConfig)
@@ -95,8 +95,8 @@ class PfConfig:
         for name in ("max_urange", "delta", "map_extent"):
             if getattr(self, name) <= 0:
                 raise ValueError(f"{name} must be positive, got {getattr(self, name)}")
-        if self.tile < 1:
-            raise ValueError(f"tile must be >= 1, got {self.tile}")
+        if self.tile < 1 or self.tile & (self.tile - 1):
+            raise ValueError(f"tile must be a power of two, got {self.tile}")
         if self.smooth_beams < 0:
             raise ValueError(f"smooth_beams must be >= 0, got {self.smooth_beams}")
         m = self.matcher

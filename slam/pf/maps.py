@@ -22,6 +22,8 @@ class TiledMaps:
     def __init__(self, n: int, center: np.ndarray, extent: float, resolution: float,
                  tile: int = 16, capacity: int = 256):
         self.tile = int(tile)
+        if self.tile < 1 or self.tile & (self.tile - 1):
+            raise ValueError(f"tile must be a power of two, got {tile}")
         n_tiles = int(np.ceil(2 * extent / (resolution * tile)))
         rows = cols = n_tiles * self.tile
         check_grid_cells(rows, cols, "pf", f"map_extent {extent:g} m at delta {resolution:g} m")
@@ -30,7 +32,8 @@ class TiledMaps:
         # part of a cell puts a wall's face in another cell than the true map does
         ox = round((float(center[0]) - rows * resolution / 2) / resolution) * resolution
         oy = round((float(center[1]) - rows * resolution / 2) / resolution) * resolution
-        self.grid_meta = np.array([ox, oy, resolution, rows, cols, self.tile], dtype=np.float64)
+        self.grid_meta = np.array([ox, oy, resolution, rows, cols, self.tile.bit_length() - 1],
+                                  dtype=np.float64)
         self.tables = np.full((n, n_tiles, n_tiles), -1, dtype=np.int32)
         self.pool = np.zeros((capacity, tile, tile, N_FIELDS), dtype=np.float32)
         self.refcount = np.zeros(capacity, dtype=np.int32)
@@ -76,13 +79,7 @@ class TiledMaps:
         ends = np.ascontiguousarray(ends, dtype=np.float64).reshape(-1, 2)
         origin = np.ascontiguousarray(origin, dtype=np.float64)
         hit = np.ascontiguousarray(hit, dtype=np.bool_)
-        mask = mark_touched(self.tables.shape[1], self.tables.shape[2], self.grid_meta, poses,
-                            origin, ends)
-        t = self.tables
-        shared = np.zeros_like(mask)
-        valid = t >= 0
-        shared[valid] = self.refcount[t[valid]] > 1
-        todo = np.argwhere(mask & (~valid | shared)).astype(np.int64)
+        todo = mark_touched(self.tables, self.refcount, self.grid_meta, poses, origin, ends)
         if len(todo):
             free = self._reserve(len(todo))
             privatize(self.tables, self.pool, self.refcount, todo, free)

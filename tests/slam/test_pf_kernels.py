@@ -2,11 +2,12 @@
 import numpy as np
 import pytest
 
-from slam.pf._map_kernel import insert_scan_ref, ray_cells, ray_cells_ref
-from slam.pf._match_kernel import (beam_cache, extract_patches, grid_likelihoods, hill_climb,
-                                    hill_climb_ref, make_params, proposal_moments,
-                                    proposal_moments_ref, score_above, score_and_likelihood,
-                                    score_and_likelihood_ref)
+from slam.pf._map_kernel import (insert_scan_ref, patch_box, ray_cells, ray_cells_ref,
+                                  read_patch)
+from slam.pf._match_kernel import (beam_cache, grid_likelihoods, hill_climb, hill_climb_ref,
+                                    make_params, proposal_moments, proposal_moments_ref,
+                                    score_above, score_and_likelihood, score_and_likelihood_ref)
+from slam.pf._proposal_kernel import propose_particles, propose_particles_ref
 from slam.pf.maps import TiledMaps
 
 PARAMS = make_params(sigma=0.05, lsigma=0.075, null_likelihood=-0.5, fullness=0.3, kernel=1,
@@ -27,6 +28,16 @@ def _room_scan(rng, pose, beams=120, size=2.4):
     ends = np.stack([r * np.cos(a), r * np.sin(a)], axis=1) + ORIGIN
     hit = rng.random(beams) > 0.1
     return ends, hit
+
+
+def _patch(maps, p, box):
+    """Particle p's patch over box (first row, column, rows, columns): (prob, mean_off,
+    corner) as the proposal reads it."""
+    box = np.asarray(box, dtype=np.int64)
+    prob, hits = np.empty(box[2:], np.float32), np.empty(box[2:], np.float32)
+    mean_off = np.empty((*box[2:], 2), np.float32)
+    read_patch(maps.tables[p], maps.pool, maps.grid_meta, box, prob, hits, mean_off)
+    return prob, mean_off, box[:2].copy()
 
 
 def _frees(ends, delta=0.05):
@@ -106,34 +117,77 @@ def test_score_likelihood_hill_climb_and_proposal_match_references(seed):
     start = truth + np.r_[rng.uniform(-0.04, 0.04, 2), rng.uniform(-0.03, 0.03)]
     poses = np.stack([start, truth])
     cells = np.floor((poses[:, 1::-1] - maps.grid_meta[1::-1]) / 0.05).astype(np.int64) - 40
-    boxes = np.c_[cells, np.full((2, 2), 80)]
-    occ, mean, corner = extract_patches(maps.tables, maps.pool, maps.grid_meta, boxes, PARAMS[3])
+    patches = [_patch(maps, p, [*cells[p], 80, 80]) for p in range(2)]
     for p in range(2):
         for q in (poses[p], poses[p] + [0.013, -0.021, 0.01]):
-            got = score_and_likelihood(occ[p], mean[p], corner[p], maps.grid_meta, q, hits, frees, PARAMS)
+            got = score_and_likelihood(*patches[p], maps.grid_meta, q, hits, frees, PARAMS)
             ref = score_and_likelihood_ref(dense, maps.grid_meta, q, hits, frees, PARAMS)
             np.testing.assert_allclose(got, ref, rtol=1e-5, atol=1e-6)
-    matched, scores = hill_climb(occ, mean, corner, maps.grid_meta, poses, hits, frees, PARAMS)
+    matched, score = hill_climb(*patches[0], maps.grid_meta, start, hits, frees, PARAMS)
     ref_pose, ref_score = hill_climb_ref(dense, maps.grid_meta, start, hits, frees, PARAMS)
-    np.testing.assert_allclose(matched[0], ref_pose, atol=1e-9)
-    assert scores[0] == pytest.approx(ref_score, rel=1e-5)
+    np.testing.assert_allclose(matched, ref_pose, atol=1e-9)
+    assert score == pytest.approx(ref_score, rel=1e-5)
     # recovery: from up to 4 cm and 1.7 degrees off, the match lands within a cell and 1.5 degrees
-    assert np.hypot(*(matched[0, :2] - truth[:2])) < 0.05 and abs(matched[0, 2] - truth[2]) < 0.026
-    prior_std = np.full((2, 3), 0.03)
-    m, cov, log_eta = proposal_moments(occ, mean, corner, maps.grid_meta, matched, poses, prior_std,
-                                       hits, frees, PARAMS)
-    for p in range(2):
-        rm, rc, rl = proposal_moments_ref(dense, maps.grid_meta, matched[p], poses[p], prior_std[p],
+    assert np.hypot(*(matched[:2] - truth[:2])) < 0.05 and abs(matched[2] - truth[2]) < 0.026
+    prior_std = np.full(3, 0.03)
+    for p, centre in enumerate((matched, truth)):
+        m, cov, log_eta = proposal_moments(*patches[p], maps.grid_meta, centre, poses[p],
+                                           prior_std, hits, frees, PARAMS)
+        rm, rc, rl = proposal_moments_ref(dense, maps.grid_meta, centre, poses[p], prior_std,
                                           hits, frees, PARAMS)
-        np.testing.assert_allclose(m[p], rm, atol=1e-9)
-        np.testing.assert_allclose(cov[p], rc, atol=1e-10)
-        assert log_eta[p] == pytest.approx(rl, rel=1e-6)
-        assert np.all(np.linalg.eigvalsh(cov[p]) >= -1e-15)
+        np.testing.assert_allclose(m, rm, atol=1e-9)
+        np.testing.assert_allclose(cov, rc, atol=1e-10)
+        assert log_eta == pytest.approx(rl, rel=1e-6)
+        assert np.all(np.linalg.eigvalsh(cov) >= -1e-15)
+
+
+@pytest.mark.kernel
+@pytest.mark.parametrize("seed", range(3))
+def test_propose_particles_is_the_loop_over_the_single_particle_kernels(seed):
+    """The compiled proposal reuses one set of patch buffers for all particles; it must give
+    what separate arrays per particle give, with boxes of different sizes (clipped to each
+    particle's tiles) and particles whose match is ignored (below minimum_score)."""
+    rng = np.random.default_rng(seed)
+    maps = TiledMaps(3, np.zeros(2), 2.0, 0.05, tile=8)
+    for step in range(4):
+        pose = np.r_[rng.uniform(-0.2, 0.2, 2), rng.uniform(-0.1, 0.1)]
+        ends, hit = _room_scan(rng, pose)
+        poses = pose + np.c_[rng.normal(0, 0.01, (3, 2)), rng.normal(0, 0.01, 3)]
+        maps.insert(poses, ORIGIN, ends, hit)
+        if step == 1:
+            maps.resample(np.array([0, 0, 2]))
+    ends, hit = _room_scan(rng, np.zeros(3))
+    hits = np.ascontiguousarray(ends[hit])
+    frees = _frees(hits)
+    poses = np.c_[rng.uniform(-0.03, 0.03, (3, 2)), rng.uniform(-0.02, 0.02, 3)]
+    poses[2] += [0.4, 0.3, 0.0]        # its box reaches past the tiles written
+    args = (maps.tables, maps.pool, maps.grid_meta, poses, poses + 0.001, np.full(3, 0.02),
+            hits, frees, PARAMS, 30, 5, 0.2, np.full(3, 100.0))
+    for minimum_score in (0.0, 1e9):
+        got = propose_particles(*args, minimum_score)
+        want = propose_particles_ref(*args, minimum_score)
+        for a, b in zip(got, want):
+            np.testing.assert_array_equal(a, b)
+
+
+def test_patch_box_is_clipped_to_the_tiles_written():
+    maps = TiledMaps(1, np.zeros(2), 2.0, 0.05, tile=8)
+    rng = np.random.default_rng(0)
+    ends, hit = _room_scan(rng, np.zeros(3), size=1.0)
+    maps.insert(np.zeros((1, 3)), ORIGIN, ends, hit)
+    a, b = np.nonzero(maps.tables[0] >= 0)
+    box = np.empty(4, np.int64)
+    patch_box(maps.tables[0], maps.grid_meta, np.zeros(3), 100, box)
+    assert list(box) == [a.min() * 8, b.min() * 8, (a.max() - a.min() + 1) * 8,
+                         (b.max() - b.min() + 1) * 8]
+    patch_box(maps.tables[0], maps.grid_meta, np.zeros(3), 3, box)
+    centre = int(np.floor(-maps.grid_meta[0] / 0.05))
+    assert list(box) == [centre - 3, centre - 3, 6, 6]
 
 
 def _room_patch(rng):
     """One particle's map of the square room after four scans, its 4 m patch around the
-    origin and a fresh scan from there: (grid_meta, occ, mean, corner, hits, frees)."""
+    origin and a fresh scan from there: (grid_meta, prob, mean_off, corner, hits, frees)."""
     maps = TiledMaps(1, np.zeros(2), 2.0, 0.05, tile=8)
     for _ in range(4):
         pose = np.r_[rng.uniform(-0.2, 0.2, 2), rng.uniform(-0.1, 0.1)]
@@ -142,24 +196,23 @@ def _room_patch(rng):
     ends, hit = _room_scan(rng, np.zeros(3))
     hits = np.ascontiguousarray(ends[hit])
     r0, c0 = np.floor(-maps.grid_meta[1::-1] / 0.05).astype(np.int64) - 40
-    occ, mean, corner = extract_patches(maps.tables, maps.pool, maps.grid_meta,
-                                        np.array([[r0, c0, 80, 80]]), PARAMS[3])
-    return maps.grid_meta, occ[0], mean[0], corner[0], hits, _frees(hits)
+    prob, mean_off, corner = _patch(maps, 0, [r0, c0, 80, 80])
+    return maps.grid_meta, prob, mean_off, corner, hits, _frees(hits)
 
 
 @pytest.mark.kernel
 @pytest.mark.parametrize("seed", range(3))
 def test_score_above_is_the_score_or_stays_at_or_below_the_bound(seed):
     rng = np.random.default_rng(seed)
-    meta, occ, mean, corner, hits, frees = _room_patch(rng)
+    meta, prob, mean_off, corner, hits, frees = _room_patch(rng)
     cache = beam_cache(len(hits), int(PARAMS[4]))     # shared by all poses, as in the climb
     stopped_early = 0
     for _ in range(20):
         q = np.r_[rng.uniform(-0.08, 0.08, 2), rng.uniform(-0.06, 0.06)]
-        full, _ = score_and_likelihood(occ, mean, corner, meta, q, hits, frees, PARAMS)
+        full, _ = score_and_likelihood(prob, mean_off, corner, meta, q, hits, frees, PARAMS)
         for bound in (-1.0, full - 1.0, full - 1e-9, full, full + 1e-9, full + 1.0,
                       0.9 * len(hits)):
-            got = score_above(occ, mean, corner, meta, q, hits, frees, PARAMS, bound, *cache)
+            got = score_above(prob, mean_off, corner, meta, q, hits, frees, PARAMS, bound, *cache)
             if full > bound:
                 assert got == pytest.approx(full, rel=1e-12)
             else:
@@ -175,12 +228,12 @@ def test_grid_likelihoods_equal_one_evaluation_per_pose(seed):
     # a grid of 3 cm steps crosses cell borders often: the candidates kept from one pose to
     # the next must be gathered again whenever the hit or the free cell changes
     rng = np.random.default_rng(seed)
-    meta, occ, mean, corner, hits, frees = _room_patch(rng)
+    meta, prob, mean_off, corner, hits, frees = _room_patch(rng)
     nl, ls, na, ast = 2, 0.03, 1, 0.02
     centre = np.r_[rng.uniform(-0.05, 0.05, 2), rng.uniform(-0.05, 0.05)]
     got = np.empty((2 * nl + 1) ** 2 * (2 * na + 1))
-    grid_likelihoods(occ, mean, corner, meta, centre, nl, ls, na, ast, hits, frees, PARAMS, got)
-    want = [score_and_likelihood(occ, mean, corner, meta, centre + [ix * ls, iy * ls, ia * ast],
+    grid_likelihoods(prob, mean_off, corner, meta, centre, nl, ls, na, ast, hits, frees, PARAMS, got)
+    want = [score_and_likelihood(prob, mean_off, corner, meta, centre + [ix * ls, iy * ls, ia * ast],
                                  hits, frees, PARAMS)[1]
             for ix in range(-nl, nl + 1) for iy in range(-nl, nl + 1) for ia in range(-na, na + 1)]
     np.testing.assert_allclose(got, want, rtol=1e-9, atol=1e-9)

@@ -1,0 +1,90 @@
+"""The improved proposal of every particle in one compiled loop (see slam/pf/proposal.py): per
+particle, its map patch around its pose is read once; Gmapping's hill climb on it, the
+Gauss-Newton refinement from there when the match is good enough, then the proposal's
+moments around the result.
+
+propose_particles: compiled; propose_particles_ref: the same loop in Python over the
+single-particle kernels, for tests.
+"""
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from slam.pf._map_kernel import patch_box, read_patch
+from slam.pf._match_kernel import hill_climb, proposal_moments
+from slam.pf._refine_kernel import mean_hit_iterate
+
+__all__ = ["propose_particles", "propose_particles_ref"]
+
+
+@njit(cache=True, nogil=True)
+def _patch(tables, pool, grid_meta, p, pose, half, box, prob, hits, mean_off):
+    """Particle p's patch around pose: views of the filled part of the buffers, the corner
+    (row, column) and the patch's own [ox, oy, resolution, rows, columns]."""
+    patch_box(tables[p], grid_meta, pose, half, box)
+    read_patch(tables[p], pool, grid_meta, box, prob, hits, mean_off)
+    nr, nc = box[2], box[3]
+    res = grid_meta[2]
+    meta = np.array([grid_meta[0] + box[1] * res, grid_meta[1] + box[0] * res, res, nr, nc])
+    return prob[:nr, :nc], hits[:nr, :nc], mean_off[:nr, :nc], box[:2].copy(), meta
+
+
+@njit(cache=True, nogil=True)
+def propose_particles(tables, pool, grid_meta, poses, prior_mean, prior_std, hits, frees, params,
+                      half, gn_iterations, gn_max_angle_step, gn_prior_w, minimum_score):
+    """Per particle p (tables (N, TR, TC) into pool, poses (N, 3), motion prior means
+    prior_mean (N, 3) and standard deviations prior_std (3,)), matching on the cells within
+    `half` of its pose: the proposal's mean (N, 3), covariance (N, 3, 3) and log eta (N,).
+    hits, frees: (K, 2) robot frame; gn_prior_w (3,): the Gauss-Newton pull towards the
+    prior mean (weights per m^2, m^2, rad^2)."""
+    n = poses.shape[0]
+    means = np.empty((n, 3))
+    covs = np.empty((n, 3, 3))
+    log_eta = np.empty(n)
+    prior_info = np.diag(gn_prior_w)
+    box = np.empty(4, dtype=np.int64)
+    prob = np.empty((2 * half, 2 * half), dtype=np.float32)
+    hit_count = np.empty((2 * half, 2 * half), dtype=np.float32)
+    mean_off = np.empty((2 * half, 2 * half, 2), dtype=np.float32)
+    for p in range(n):
+        pr, hc, mo, corner, meta = _patch(tables, pool, grid_meta, p, poses[p], half, box, prob,
+                                          hit_count, mean_off)
+        start, score = hill_climb(pr, mo, corner, grid_meta, poses[p], hits, frees, params)
+        if not score > minimum_score:
+            start = poses[p].copy()
+        elif gn_iterations > 0:
+            start = mean_hit_iterate(pr, hc, mo, meta, hits, start, gn_iterations,
+                                     gn_max_angle_step, prior_mean[p], prior_info)
+        means[p], covs[p], log_eta[p] = proposal_moments(pr, mo, corner, grid_meta, start,
+                                                         prior_mean[p], prior_std, hits, frees,
+                                                         params)
+    return means, covs, log_eta
+
+
+def propose_particles_ref(tables, pool, grid_meta, poses, prior_mean, prior_std, hits, frees,
+                          params, half, gn_iterations, gn_max_angle_step, gn_prior_w,
+                          minimum_score):
+    """propose_particles written as a Python loop over the single-particle kernels, each
+    particle's patch in arrays of its own."""
+    out = []
+    for p in range(len(poses)):
+        box = np.empty(4, dtype=np.int64)
+        patch_box(tables[p], grid_meta, poses[p], half, box)
+        nr, nc = int(box[2]), int(box[3])
+        prob, hits_n = np.empty((nr, nc), np.float32), np.empty((nr, nc), np.float32)
+        mean_off = np.empty((nr, nc, 2), np.float32)
+        read_patch(tables[p], pool, grid_meta, box, prob, hits_n, mean_off)
+        res = grid_meta[2]
+        meta = np.array([grid_meta[0] + box[1] * res, grid_meta[1] + box[0] * res, res, nr, nc])
+        start, score = hill_climb(prob, mean_off, box[:2], grid_meta, poses[p], hits, frees,
+                                  params)
+        if score <= minimum_score:
+            start = poses[p].copy()
+        elif gn_iterations > 0:
+            start = mean_hit_iterate(prob, hits_n, mean_off, meta, hits, start, gn_iterations,
+                                     gn_max_angle_step, prior_mean[p], np.diag(gn_prior_w))
+        out.append(proposal_moments(prob, mean_off, box[:2], grid_meta, start, prior_mean[p],
+                                    prior_std, hits, frees, params))
+    return (np.array([o[0] for o in out]), np.array([o[1] for o in out]),
+            np.array([o[2] for o in out]))
