@@ -3,7 +3,9 @@ import numpy as np
 import pytest
 
 from slam.base import Scan
-from slam.preprocess import PreprocessConfig, motion_during, preprocess, smooth_ranges, twist_from_poses
+from slam._kernels.beams import motion_during, scan_points, scan_points_ref
+from slam._kernels.smooth import smooth_ranges
+from slam.preprocess import PreprocessConfig, preprocess, twist_from_poses
 from slam.pose import compose, transform_points
 
 ANGLES = np.linspace(0, 2 * np.pi, 8, endpoint=False)
@@ -82,5 +84,25 @@ def test_smoothing_keeps_a_flat_wall_flat_and_reduces_noise(rng):
 
 def test_smoothing_keeps_depth_jumps():
     r = np.r_[np.full(10, 1.0), np.full(10, 2.0)]
-    along, across = smooth_ranges(r, np.ones(20, bool), 3, 0.1, 0.01, circular=False)
+    along, across = smooth_ranges(r, np.ones(20, bool), 3, 0.1, 0.01, False)
     assert np.all(np.abs(along[:8] - 1.0) < 0.01) and np.all(np.abs(along[12:] - 2.0) < 0.01)
+
+
+@pytest.mark.kernel
+@pytest.mark.parametrize("seed", range(4))
+def test_scan_points_matches_its_reference(seed):
+    """Random revolutions with no returns, short and long readings and NaN; with and without
+    smoothing, free space and de-skew (turning and straight)."""
+    rng = np.random.default_rng(seed)
+    n = 360
+    angles = np.linspace(0, 2 * np.pi, n, endpoint=False)
+    ranges = rng.uniform(0.05, 4.0, n)
+    ranges[rng.random(n) < 0.1] = np.inf
+    ranges[rng.random(n) < 0.02] = np.nan
+    offset = np.array([-0.03, 0.01, 0.05])
+    for smooth, free, twist in [(0, 0.0, np.array([0.2, 0.0, 0.8])), (4, 1.0, np.zeros(3)),
+                                (2, 5.0, np.array([0.1, 0.02, 0.0])), (4, 0.5, np.array([0.3, 0.0, -1.1]))]:
+        args = (ranges, angles, offset, 0.12, 3.5, free, smooth, 0.1, twist, 2e-4, seed % 2 == 0)
+        for got, want in zip(scan_points(*args), scan_points_ref(*args)):
+            assert got.shape == want.shape
+            np.testing.assert_allclose(got, want, rtol=0, atol=1e-12)
