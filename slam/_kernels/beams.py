@@ -41,6 +41,22 @@ def _beam_point(angle, rng, side, offset, j, twist, time_increment, deskew, out,
 
 
 @njit(cache=True, nogil=True)
+def _median_step(angles):
+    """The median of the steps between consecutive angles (numpy's median: the mean of the
+    two middle values of an even count); 0 for fewer than two angles."""
+    n = angles.shape[0] - 1
+    if n < 1:
+        return 0.0
+    d = np.empty(n)
+    for j in range(n):
+        d[j] = angles[j + 1] - angles[j]
+    d.sort()
+    if n % 2:
+        return d[n // 2]
+    return (d[n // 2 - 1] + d[n // 2]) / 2
+
+
+@njit(cache=True, nogil=True)
 def scan_points(ranges, angles, offset, range_min, range_max, free_range, smooth_beams,
                 smooth_jump, twist, time_increment, deskew):
     """(points (N, 2), misses (M, 2)) in the robot frame of one revolution.
@@ -69,7 +85,7 @@ def scan_points(ranges, angles, offset, range_min, range_max, free_range, smooth
     across = np.zeros(n)
     if smooth_beams > 0 and n_hit > 0:
         # beams are equally spaced over the revolution: the fan's angle step is the beams' step
-        step = np.median(np.diff(angles)) if n > 1 else 0.0
+        step = _median_step(angles)
         full = n > 1 and abs(step * n - 2 * np.pi) < 1e-6
         along, across = smooth_ranges(r, hit, smooth_beams, smooth_jump, step, full)
         for j in range(n):
