@@ -62,6 +62,7 @@ class PurePursuit:
         self._cum = self.cum.tolist()
         self._seg = [(float(p[0]), float(p[1]), float(d[0]), float(d[1]), float(n))
                      for p, d, n in zip(path[:-1], seg, self.seg_len)]
+        self._end = (float(path[-1, 0]), float(path[-1, 1]))
         self.s = 0.0            # progress (arc length of the closest point)
         self.v = 0.0
         self.done = self.length < 1e-3
@@ -70,10 +71,12 @@ class PurePursuit:
         self._best_t = 0.0
 
     def _segment_at(self, s: float) -> int:
-        return min(max(bisect.bisect_right(self._cum, s) - 1, 0), len(self._seg) - 1)
+        i = bisect.bisect_right(self._cum, s) - 1
+        last = len(self._seg) - 1
+        return 0 if i < 0 else (last if i > last else i)
 
     def _point_at(self, s: float) -> tuple[float, float]:
-        s = min(max(s, 0.0), self.length)
+        s = 0.0 if s < 0.0 else (self.length if s > self.length else s)
         i = self._segment_at(s)
         x0, y0, dx, dy, length = self._seg[i]
         f = (s - self._cum[i]) / length
@@ -114,8 +117,8 @@ class PurePursuit:
             self.done = self.stuck = True
             self.v = 0.0
             return 0.0, 0.0
-        end = self.path[-1]
-        to_end = math.hypot(end[0] - x, end[1] - y)
+        end_x, end_y = self._end
+        to_end = math.hypot(end_x - x, end_y - y)
         remaining = self.length - self.s
         if remaining < cfg.lookahead and to_end < cfg.goal_tolerance:
             self.done = True

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from sim._raycast import cast_rays
+from sim._raycast import cast_rays_indexed, segment_grid
 from sim.noise import LidarNoise
 
 __all__ = ["LidarConfig", "beam_poses", "cast_scans", "apply_range_noise"]
@@ -82,21 +82,16 @@ def beam_poses(scan_t: np.ndarray, gt_t: np.ndarray, gt_pose: np.ndarray,
 
 
 def cast_scans(segments: np.ndarray, origins: np.ndarray, angles: np.ndarray,
-               max_range: float) -> np.ndarray:
+               max_range: float, cell: float = 0.5) -> np.ndarray:
     """True ranges (N, B) m (inf = nothing within max_range) for origins (N, B, 2) and
-    world angles (N, B); segments (S, 4). Per scan only segments that can be within
-    max_range of the scan's origins are tested."""
+    world angles (N, B); segments (S, 4). Each beam tests only the segments filed in the
+    cells (`cell` m) of a uniform grid it crosses (sim._raycast.cast_rays_indexed)."""
     n, b = angles.shape
-    out = np.empty((n, b))
-    lo = np.minimum(segments[:, :2], segments[:, 2:])
-    hi = np.maximum(segments[:, :2], segments[:, 2:])
-    for i in range(n):
-        o = origins[i]
-        omin = o.min(axis=0) - max_range
-        omax = o.max(axis=0) + max_range
-        near = np.all((hi >= omin) & (lo <= omax), axis=1)
-        out[i] = cast_rays(segments[near], o, angles[i], max_range)
-    return out
+    seg = np.ascontiguousarray(segments, dtype=np.float64).reshape(-1, 4)
+    grid = segment_grid(seg, cell)
+    out = cast_rays_indexed(seg, *grid, np.ascontiguousarray(origins, dtype=np.float64).reshape(-1, 2),
+                            np.ascontiguousarray(angles, dtype=np.float64).reshape(-1), float(max_range))
+    return out.reshape(n, b)
 
 
 def apply_range_noise(ranges: np.ndarray, noise: LidarNoise, cfg: LidarConfig,

@@ -17,6 +17,7 @@ from __future__ import annotations
 import io
 import json
 import zipfile
+import zlib
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -28,6 +29,13 @@ from sim.logcheck import log_problem
 __all__ = ["SensorLog", "read_log", "write_log", "value_problem", "world_ref", "FORMAT_VERSION"]
 
 FORMAT_VERSION = 1
+# zlib level of the .npz entries: most arrays are float noise that higher levels barely
+# shrink (a few % for 3x the time); np.load reads any level
+_DEFLATE_LEVEL = 1
+# an entry whose first _PROBE bytes deflate by less than _MIN_GAIN is stored uncompressed
+# (white sensor noise: deflating it costs time and saves nothing)
+_PROBE = 1 << 14
+_MIN_GAIN = 0.05
 
 # name -> trailing shape (None = the length axis); the length axis is shared per group
 _ARRAYS = {
@@ -160,8 +168,17 @@ def write_log(log: SensorLog, path: str | Path) -> None:
             info.external_attr = 0o644 << 16
             npy = io.BytesIO()
             np.lib.format.write_array(npy, np.ascontiguousarray(arr), allow_pickle=False)
-            zf.writestr(info, npy.getvalue())
+            data = npy.getvalue()
+            if not _deflates(data):
+                info.compress_type = zipfile.ZIP_STORED
+            zf.writestr(info, data, compresslevel=_DEFLATE_LEVEL)
     atomic_write_bytes(path, buf.getvalue())
+
+
+def _deflates(data: bytes) -> bool:
+    """Whether deflating `data` is worth it, judged on its first _PROBE bytes."""
+    probe = data[:_PROBE]
+    return len(zlib.compress(probe, _DEFLATE_LEVEL)) < (1.0 - _MIN_GAIN) * len(probe)
 
 
 def read_log(path: str | Path) -> SensorLog:

@@ -25,6 +25,7 @@ from typing import Mapping
 
 import numpy as np
 
+from sim._coverage import mark_beam_ends_inplace
 from sim.controller import ControllerConfig, PurePursuit
 from sim.imu import simulate_imu
 from sim.lidar import LidarConfig, apply_range_noise, beam_poses, cast_scans
@@ -119,28 +120,30 @@ def _drive(world: World, route: np.ndarray, cfg: RecordConfig, noise: NoiseProfi
     every = cfg.control_every
     dt_c = dt * every
     n_ctrl_max = int(math.ceil(cfg.max_duration / dt_c))
-    slip_chunk = np.empty((0, 2))
+    slip_chunk = []
     gt = [robot.pose]
     wheel = []
     ending = "time limit"
-    drive = robot.drive
+    # per-step Python: plain floats and locals (numpy scalars cost ~10x a float operation)
+    drive, command, sqrt = robot.drive, ctrl.command, math.sqrt
+    radius, slip = rc.wheel_radius, wn.slip_density
     for k in range(n_ctrl_max):
         x, y, a = gt[-1]
-        v, w = ctrl.command(x, y, a, k * dt_c, dt_c)
+        v, w = command(x, y, a, k * dt_c, dt_c)
         if ctrl.done:
             ending = "stuck" if ctrl.stuck else "end"
             break
         wl, wr = wheel_speeds(v, w, rc)
         wheel.append((wl, wr))
         if k % 1000 == 0:
-            slip_chunk = slip_rng.standard_normal((1000, 2))
-        e = slip_chunk[k % 1000]
+            slip_chunk = slip_rng.standard_normal((1000, 2)).tolist()
+        el, er = slip_chunk[k % 1000]
         # ground travel of each wheel in this control step: effective radius plus slip whose
         # variance grows with the wheel's travel (Chong & Kleeman 1997)
-        dl = wl * dt_c * rc.wheel_radius
-        dr = wr * dt_c * rc.wheel_radius
-        gl = wl * dt_c * r_left + wn.slip_density * math.sqrt(abs(dl)) * e[0]
-        gr = wr * dt_c * r_right + wn.slip_density * math.sqrt(abs(dr)) * e[1]
+        dl = wl * dt_c * radius
+        dr = wr * dt_c * radius
+        gl = wl * dt_c * r_left + slip * sqrt(abs(dl)) * el
+        gr = wr * dt_c * r_right + slip * sqrt(abs(dr)) * er
         vt, wt = twist_from_wheels(gl / dt_c, gr / dt_c, 1.0, 1.0, sep)
         drive(vt, wt, dt, every, gt)
     # a route that ends (or is empty) early: stand still, so the log holds a few scans
@@ -160,15 +163,19 @@ def _seen_share(world: World, origins: np.ndarray, angles: np.ndarray, ranges: n
                 lc: LidarConfig) -> float:
     """Share of the true map's occupied cells holding the end of a beam within the lidar's
     range. origins (N, B, 2) m, angles (N, B) rad, ranges (N, B) m, noise-free."""
-    from worlds.coverage import seen_share
-    from worlds.raster import rasterize
-    ok = np.isfinite(ranges) & (ranges >= lc.range_min) & (ranges <= lc.range_max)
+    from worlds.raster import true_walls
+    walls = true_walls(world)
+    ranges = ranges.reshape(-1)
+    beams = np.flatnonzero(np.isfinite(ranges) & (ranges >= lc.range_min) & (ranges <= lc.range_max))
+    a = angles.reshape(-1)[beams]
+    ox, oy, yaw = walls.origin
+    frame = np.array([ox, oy, walls.resolution, np.cos(yaw), np.sin(yaw)])
+    hit = np.zeros(walls.shape, dtype=bool)
     # a beam ends on the surface: a face on a cell edge belongs to the cell on either side
     # (worlds.raster takes the floor), so take the points a micrometre before and after it
-    r = ranges[ok][:, None]
-    d = np.stack([np.cos(angles[ok]), np.sin(angles[ok])], axis=1)
-    ends = np.vstack([origins[ok] + (r - 1e-6) * d, origins[ok] + (r + 1e-6) * d])
-    return seen_share(rasterize(world), ends)
+    mark_beam_ends_inplace(hit, frame, origins.reshape(-1, 2), ranges, beams, np.cos(a), np.sin(a), 1e-6)
+    occupied = walls.occupied()
+    return float((hit & occupied).sum() / max(1, occupied.sum()))
 
 
 def recording_problem(meta: Mapping, min_coverage: float = MIN_COVERAGE) -> str | None:

@@ -130,19 +130,21 @@ class DiffDriveRobot:
         """
         lib, sp, b, k = self._lib, self._space_ptr, self._body_ptr, self._control_ptr
         get_angle, get_pos = lib.cpBodyGetAngle, lib.cpBodyGetPosition
-        set_vel, set_w, space_step = lib.cpBodySetVelocity, lib.cpBodySetAngularVelocity, lib.cpSpaceStep
+        set_vel, space_step, append = lib.cpBodySetVelocity, lib.cpSpaceStep, out.append
         # The velocity solved in this step moves the body in the next one (Chipmunk
         # integrates positions before it solves the joints), while the body turns from
         # angle + w dt to angle + 2 w dt: point it along the middle of that turn.
         ahead = 1.5 * w * dt
         cos, sin = math.cos, math.sin
-        set_w(k, w)
+        lib.cpBodySetAngularVelocity(k, w)
+        angle = get_angle(b)
         for _ in range(steps):
-            a = get_angle(b) + ahead
+            a = angle + ahead
             set_vel(k, (v * cos(a), v * sin(a)))
             space_step(sp, dt)
             p = get_pos(b)
-            out.append((p.x, p.y, get_angle(b)))
+            angle = get_angle(b)
+            append((p.x, p.y, angle))
 
     @property
     def pose(self) -> tuple[float, float, float]:

@@ -25,17 +25,15 @@ import math
 
 import numpy as np
 import shapely
-from scipy import ndimage
 
 from worlds.grid import Grid
 from worlds.limits import check_grid_cells
 from worlds.model import World
 from worlds.yamlio import InputError
 
-__all__ = ["rasterize", "grid_frame", "cell_centres", "surface_points", "MARGIN_CELLS"]
+__all__ = ["rasterize", "true_walls", "grid_frame", "cell_centres", "surface_points", "MARGIN_CELLS"]
 
 MARGIN_CELLS = 3
-_FOUR = ndimage.generate_binary_structure(2, 1)
 
 
 def _snap(v: float) -> float:
@@ -73,26 +71,47 @@ def rasterize(world: World, resolution: float | None = None) -> Grid:
     resolution: m per cell, default world.resolution. Returns prob 1.0 occupied,
     0.0 free, NaN unknown; origin yaw 0.
     """
+    from scipy import ndimage   # scipy's import is slow; only the flood fill needs it
+
     ox, oy, res, rows, cols = grid_frame(world, resolution)
-    X, Y = cell_centres(ox, oy, res, rows, cols)
     free_geom = world.free_space
     prob = np.full((rows, cols), np.nan)
     if free_geom.is_empty:
         return Grid(prob, res, np.array([ox, oy, 0.0]))
+    surface = _surface_mask(free_geom, ox, oy, res, rows, cols)
+    X, Y = cell_centres(ox, oy, res, rows, cols)
+    shapely.prepare(free_geom)
+    open_ = shapely.contains_xy(free_geom, X, Y) & ~surface
+    r = int(math.floor((world.start[1] - oy) / res))
+    c = int(math.floor((world.start[0] - ox) / res))
+    labels, _ = ndimage.label(open_, structure=ndimage.generate_binary_structure(2, 1))
+    if 0 <= r < rows and 0 <= c < cols and labels[r, c] > 0:
+        prob[labels == labels[r, c]] = 0.0
+    prob[surface] = 1.0
+    return Grid(prob, res, np.array([ox, oy, 0.0]))
+
+
+def true_walls(world: World, resolution: float | None = None) -> Grid:
+    """The occupied cells of rasterize(world, resolution) alone: prob 1.0 there, NaN
+    elsewhere (no free cells), on the same frame. For what needs only the walls (coverage),
+    without the free-space test and flood fill."""
+    ox, oy, res, rows, cols = grid_frame(world, resolution)
+    prob = np.full((rows, cols), np.nan)
+    free_geom = world.free_space
+    if not free_geom.is_empty:
+        prob[_surface_mask(free_geom, ox, oy, res, rows, cols)] = 1.0
+    return Grid(prob, res, np.array([ox, oy, 0.0]))
+
+
+def _surface_mask(free_geom, ox: float, oy: float, res: float, rows: int, cols: int) -> np.ndarray:
+    """(rows, cols) bool: cells holding a point of the free space's boundary (sampled every
+    res / 16 m): the occupied cells of the rule above."""
     surface = np.zeros((rows, cols), dtype=bool)
     pts = surface_points(free_geom, res / 16.0)
     sr = np.floor((pts[:, 1] - oy) / res).astype(np.int64)
     sc = np.floor((pts[:, 0] - ox) / res).astype(np.int64)
     surface[sr, sc] = True
-    shapely.prepare(free_geom)
-    open_ = shapely.contains_xy(free_geom, X, Y) & ~surface
-    r = int(math.floor((world.start[1] - oy) / res))
-    c = int(math.floor((world.start[0] - ox) / res))
-    labels, _ = ndimage.label(open_, structure=_FOUR)
-    if 0 <= r < rows and 0 <= c < cols and labels[r, c] > 0:
-        prob[labels == labels[r, c]] = 0.0
-    prob[surface] = 1.0
-    return Grid(prob, res, np.array([ox, oy, 0.0]))
+    return surface
 
 
 def surface_points(region, step: float) -> np.ndarray:

@@ -20,8 +20,6 @@ from __future__ import annotations
 
 import numpy as np
 import shapely
-from scipy import sparse
-from scipy.sparse import csgraph
 
 from worlds.coverage import resample_path
 from worlds.grid import Grid
@@ -72,6 +70,7 @@ class _RobotGraph:
             dst.append(j[m])
             w.append(length * 0.5 * (pen[i] + pen[j[m]]))
         src, dst, w = np.concatenate(src), np.concatenate(dst), np.concatenate(w)
+        from scipy import sparse   # imported here: scipy's import is slow, only the planner needs it
         self.matrix = sparse.coo_matrix((np.r_[w, w], (np.r_[src, dst], np.r_[dst, src])),
                                         shape=(n, n)).tocsr()
 
@@ -81,6 +80,7 @@ class _RobotGraph:
 
     def component(self, node: int) -> np.ndarray:
         """Bool mask of nodes connected to `node`."""
+        from scipy.sparse import csgraph
         _, labels = csgraph.connected_components(self.matrix, directed=False)
         return labels == labels[node]
 
@@ -251,6 +251,7 @@ def plan_route(world: World, max_range: float = 3.0, clearance: float = 0.3,
         chosen += [n_pref + e for e in extra]
     views = cand[chosen]
     nodes = np.r_[start_node, views]
+    from scipy.sparse import csgraph
     dist, pred = csgraph.dijkstra(graph.matrix, directed=False, indices=nodes, return_predecessors=True)
     tour = _order(dist[:, nodes])
     # join the viewpoints in order; each leg is smoothed on its own so viewpoints stay

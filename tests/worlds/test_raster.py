@@ -7,7 +7,7 @@ from scipy import ndimage
 
 from worlds.coverage import resample_path
 from worlds.load import load_world, world_from_dict
-from worlds.raster import MARGIN_CELLS, cell_centres, grid_frame, rasterize
+from worlds.raster import MARGIN_CELLS, cell_centres, grid_frame, rasterize, true_walls
 from worlds.visibility import beam_angles, cast_rays, hit_cells
 
 
@@ -140,3 +140,14 @@ def test_perfect_lidar_hits_on_slanted_obstacles():
     angles = beam_angles(1440)
     r, c = hit_cells(g, pts, angles, cast_rays(w.segments, pts, angles, 10.0))
     assert g.occupied()[r, c].mean() >= 0.999
+
+
+@pytest.mark.parametrize("name", ["rectangle_s", "swirl_l", "corridor", "loop",
+                                  "tests/data/worlds_obstacles.yaml"])
+def test_true_walls_are_the_occupied_cells_of_the_truth(name):
+    w = load_world(name)
+    truth, walls = rasterize(w), true_walls(w)
+    assert walls.shape == truth.shape and walls.resolution == truth.resolution
+    np.testing.assert_array_equal(walls.origin, truth.origin)
+    np.testing.assert_array_equal(walls.occupied(), truth.occupied())
+    assert np.isnan(walls.prob[~walls.occupied()]).all()
