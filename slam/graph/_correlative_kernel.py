@@ -16,14 +16,16 @@ then an integer cell shift. Its score is the mean grid value under the scan's po
 Each compiled kernel has a plain numpy reference (`*_ref`) written independently, for tests.
 Storage convention of the max grids: one (D+1, rows+pad, cols+pad) float32 array with
 pad = 2^D - 1; grid cell (r, c) sits at [h, r+pad, c+pad], so blocks reaching the grid from
-below or from the left are stored too.
+below or from the left are stored too, and a margin of zero cells around them, which
+bnb_search reads through (bnb_margin), so a shifted point needs no bounds check, and sums the four
+children of a block in one pass over the points.
 """
 from __future__ import annotations
 
 import numpy as np
 from numba import njit
 
-__all__ = ["max_grids", "max_grids_ref", "bnb_search", "score_candidates", "score_candidates_ref",
+__all__ = ["max_grids", "max_grids_ref", "bnb_margin", "bnb_search", "score_candidates", "score_candidates_ref",
            "best_candidate_ref", "discretize_rotations", "discretize_rotations_ref"]
 
 
@@ -35,14 +37,20 @@ def discretize_rotations(points, x, y, yaws, ox, oy, res):
     K = yaws.shape[0]
     n = points.shape[0]
     out = np.empty((K, n, 2), np.int32)
+    qx = points[:, 0].copy()
+    qy = points[:, 1].copy()
+    fx = np.empty(n)
+    fy = np.empty(n)
     for k in range(K):
         c = np.cos(yaws[k])
         s = np.sin(yaws[k])
+        # contiguous float loops first, so the compiler vectorises the divisions
         for p in range(n):
-            px = x + c * points[p, 0] - s * points[p, 1]
-            py = y + s * points[p, 0] + c * points[p, 1]
-            out[k, p, 0] = np.int32(np.floor((px - ox) / res))
-            out[k, p, 1] = np.int32(np.floor((py - oy) / res))
+            fx[p] = np.floor((x + c * qx[p] - s * qy[p] - ox) / res)
+            fy[p] = np.floor((y + s * qx[p] + c * qy[p] - oy) / res)
+        for p in range(n):
+            out[k, p, 0] = np.int32(fx[p])
+            out[k, p, 1] = np.int32(fy[p])
     return out
 
 
@@ -55,38 +63,41 @@ def discretize_rotations_ref(points, x, y, yaws, ox, oy, res) -> np.ndarray:
 
 
 @njit(cache=True, nogil=True)
-def max_grids(prob, depth):
-    """prob: (R, C) float grid values (NaN not allowed; use 0 for unknown); depth: D >= 0.
+def max_grids(prob, depth, margin):
+    """prob: (R, C) float grid values (NaN not allowed; use 0 for unknown); depth: D >= 0;
+    margin: zero cells added on every side (bnb_search reads the levels through one).
 
-    Returns (D+1, R+pad, C+pad) float32 with pad = 2^D - 1; [h, i, j] = max of prob over rows
-    i-pad .. i-pad+2^h-1 and cols j-pad .. j-pad+2^h-1 (0 outside prob).
+    Returns (D+1, R+pad+2*margin, C+pad+2*margin) float32 with pad = 2^D - 1;
+    [h, i+margin, j+margin] = max of prob over rows i-pad .. i-pad+2^h-1 and cols
+    j-pad .. j-pad+2^h-1 (0 outside prob).
     """
     rows, cols = prob.shape
     pad = (1 << depth) - 1
-    out = np.zeros((depth + 1, rows + pad, cols + pad), np.float32)
+    m0 = margin
+    out = np.zeros((depth + 1, rows + pad + 2 * m0, cols + pad + 2 * m0), np.float32)
     for r in range(rows):
         for c in range(cols):
-            out[0, r + pad, c + pad] = prob[r, c]
+            out[0, r + pad + m0, c + pad + m0] = prob[r, c]
     R = rows + pad
     C = cols + pad
     for h in range(1, depth + 1):
         w = 1 << (h - 1)
         for i in range(R):
             for j in range(C):
-                m = out[h - 1, i, j]
+                m = out[h - 1, m0 + i, m0 + j]
                 if i + w < R:
-                    v = out[h - 1, i + w, j]
+                    v = out[h - 1, m0 + i + w, m0 + j]
                     if v > m:
                         m = v
                     if j + w < C:
-                        v = out[h - 1, i + w, j + w]
+                        v = out[h - 1, m0 + i + w, m0 + j + w]
                         if v > m:
                             m = v
                 if j + w < C:
-                    v = out[h - 1, i, j + w]
+                    v = out[h - 1, m0 + i, m0 + j + w]
                     if v > m:
                         m = v
-                out[h, i, j] = m
+                out[h, m0 + i, m0 + j] = m
     return out
 
 
@@ -105,21 +116,6 @@ def max_grids_ref(prob: np.ndarray, depth: int) -> np.ndarray:
                 level = np.maximum(level, big[a:a + rows + pad, b:b + cols + pad])
         out[h] = level
     return out
-
-
-@njit(cache=True, nogil=True)
-def _score(grids, h, pad, cells, k, dx, dy):
-    level = grids[h]
-    R = level.shape[0]
-    C = level.shape[1]
-    n = cells.shape[1]
-    s = 0.0
-    for p in range(n):
-        i = cells[k, p, 1] + dy + pad
-        j = cells[k, p, 0] + dx + pad
-        if 0 <= i < R and 0 <= j < C:
-            s += level[i, j]
-    return s / n
 
 
 @njit(cache=True, nogil=True)
@@ -179,10 +175,69 @@ def best_candidate_ref(grid: np.ndarray, cells: np.ndarray, wx: int, wy: int,
 
 
 @njit(cache=True, nogil=True)
-def bnb_search(grids, cells, wx, wy, min_score, ex_x, ex_y, ex_r):
+def _start_level(depth, wx, wy):
+    """The coarsest level whose blocks are not all larger than the window: above it each
+    block has one child in the window and its bound is only looser."""
+    h0 = depth
+    while h0 > 0 and (1 << (h0 - 1)) >= 2 * max(wx, wy) + 1:
+        h0 -= 1
+    return h0
+
+
+def bnb_margin(depth: int, wx: int, wy: int) -> int:
+    """Zero cells bnb_search needs on every side of max_grids' levels (depth D, shift windows
+    wx, wy cells): a point whose shifted cells reach the grid has all of them in the array."""
+    return 2 * max(wx, wy) + ((1 << _start_level(depth, wx, wy)) >> 1) + 1
+
+
+@njit(cache=True, nogil=True)
+def _sum(flat, base, n, off):
+    s = 0.0
+    for p in range(n):
+        s += flat[np.uint64(base[p] + off)]
+    return s
+
+
+@njit(cache=True, nogil=True)
+def _sum_children(flat, base, n, off, half, stride, out):
+    """out[a * 2 + b] = sum of flat[base + off + a * half * stride + b * half] over the points:
+    the four children of a block in one pass (four independent sums in point order)."""
+    s0 = 0.0
+    s1 = 0.0
+    s2 = 0.0
+    s3 = 0.0
+    up = half * stride
+    for p in range(n):
+        # unsigned indices: numba then skips its negative-index wraparound on every read
+        q = np.uint64(base[p] + off)
+        s0 += flat[q]
+        s1 += flat[q + np.uint64(half)]
+        s2 += flat[q + np.uint64(up)]
+        s3 += flat[q + np.uint64(up + half)]
+    out[0] = s0
+    out[1] = s1
+    out[2] = s2
+    out[3] = s3
+
+
+@njit(cache=True, nogil=True)
+def _sum_pair(flat, base, n, off, step, out):
+    """out[0], out[1] = the sums of _sum at offsets off and off + step, in one pass."""
+    s0 = 0.0
+    s1 = 0.0
+    for p in range(n):
+        q = np.uint64(base[p] + off)
+        s0 += flat[q]
+        s1 += flat[q + np.uint64(step)]
+    out[0] = s0
+    out[1] = s1
+
+
+@njit(cache=True, nogil=True)
+def bnb_search(grids, margin, cells, wx, wy, min_score, ex_x, ex_y, ex_r):
     """Branch and bound over rotations and cell shifts (Hess et al. 2016, Algorithm 3).
 
-    grids: from max_grids (depth D = grids.shape[0]-1); cells: (K, P, 2) int32; wx, wy: shift
+    grids: from max_grids (depth D = grids.shape[0]-1) with a `margin` >= bnb_margin(D, wx, wy); cells: (K, P, 2) int32; wx, wy: shift
     windows (|dx| <= wx, |dy| <= wy); min_score: leaves must score above it; ex_x, ex_y, ex_r:
     shifts within ex_r cells (Chebyshev) of (ex_x, ex_y) are excluded (ex_r < 0: none), to
     find the best match elsewhere (an ambiguity check). No defaults on purpose: numba's fast
@@ -190,13 +245,31 @@ def bnb_search(grids, cells, wx, wy, min_score, ex_x, ex_y, ex_r):
     Returns (k, dx, dy, score); k = -1 when no candidate beats min_score.
     """
     D = grids.shape[0] - 1
-    pad = (1 << D) - 1
+    h0 = _start_level(D, wx, wy)
+    if margin < 2 * max(wx, wy) + ((1 << h0) >> 1) + 1:
+        raise ValueError("bnb_search: margin below bnb_margin")
+    R = grids.shape[1]
+    C = grids.shape[2]
+    flat = grids.reshape(-1)
+    org = (1 << D) - 1 + margin        # stored row / col of grid cell 0
     K = cells.shape[0]
-    # Start at the coarsest level whose blocks are not all larger than the window: above it
-    # each block has one child in the window and its bound is only looser.
-    h0 = D
-    while h0 > 0 and (1 << (h0 - 1)) >= 2 * max(wx, wy) + 1:
-        h0 -= 1
+    n = cells.shape[1]
+    # Flat index of each point at shift (0, 0). A point whose shifted cells never reach the
+    # grid reads a cell of the zero margin instead, whose shifts stay in the margin: it adds
+    # +0.0, which leaves every sum as it was.
+    reach = (1 << h0) >> 1
+    span_i = np.uint64(R - 2 * wy - reach)     # positive: the margin check above
+    span_j = np.uint64(C - 2 * wx - reach)
+    zero = wy * C + wx
+    base = np.empty((K, n), np.int64)
+    cf = np.ascontiguousarray(cells).reshape(-1)
+    bf = base.reshape(-1)
+    for q in range(K * n):
+        i = np.int64(cf[2 * q + 1]) + org
+        j = np.int64(cf[2 * q]) + org
+        # wy <= i < R - wy - reach and the same for j, as one unsigned compare each
+        inside = (np.uint64(i - wy) < span_i) & (np.uint64(j - wx) < span_j)
+        bf[q] = i * C + j if inside else zero
     step = 1 << h0
     nx = (2 * wx) // step + 1
     ny = (2 * wy) // step + 1
@@ -221,7 +294,7 @@ def bnb_search(grids, cells, wx, wy, min_score, ex_x, ex_y, ex_r):
                 tk[m] = k
                 tx[m] = dx
                 ty[m] = dy
-                ts[m] = _score(grids, h0, pad, cells, k, dx, dy)
+                ts[m] = _sum(flat, base[k], n, (h0 * R + dy) * C + dx) / n
                 m += 1
     order = np.argsort(ts)
     top = 0
@@ -239,6 +312,7 @@ def bnb_search(grids, cells, wx, wy, min_score, ex_x, ex_y, ex_r):
     cx = np.empty(4, np.int64)
     cy = np.empty(4, np.int64)
     cs = np.empty(4, np.float64)
+    four = np.empty(4, np.float64)
     while top > 0:
         top -= 1
         s = ss[top]
@@ -253,6 +327,19 @@ def bnb_search(grids, cells, wx, wy, min_score, ex_x, ex_y, ex_r):
             best, best_k, best_x, best_y = s, k, dx, dy
             continue
         half = 1 << (h - 1)
+        # only the children inside the window are summed
+        off = ((h - 1) * R + dy) * C + dx
+        right = dx + half <= wx
+        upper = dy + half <= wy
+        if right and upper:
+            _sum_children(flat, base[k], n, off, half, C, four)
+        elif right:
+            _sum_pair(flat, base[k], n, off, half, four)
+        elif upper:
+            _sum_pair(flat, base[k], n, off, half * C, four)
+            four[2] = four[1]
+        else:
+            four[0] = _sum(flat, base[k], n, off)
         nc = 0
         for a in range(2):
             for b in range(2):
@@ -263,7 +350,7 @@ def bnb_search(grids, cells, wx, wy, min_score, ex_x, ex_y, ex_r):
                 ck[nc] = k
                 cx[nc] = x
                 cy[nc] = y
-                cs[nc] = _score(grids, h - 1, pad, cells, k, x, y)
+                cs[nc] = four[2 * a + b] / n
                 nc += 1
         # Push children worst first so the best child is explored next (depth first).
         for _ in range(nc):

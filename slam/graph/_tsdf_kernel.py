@@ -15,6 +15,8 @@ front of the surface, clamped to +-truncation. It is averaged into the cell with
 max_weight, so old observations fade. A cell is updated once per scan, by the first hit (in
 bearing order) whose ray reaches it: `stamp` holds the scan id that last updated each cell.
 
+cells_under: the cells under points (the lookups of the matchers' weights and checks).
+
 *_ref: plain numpy/python statements of the same for the tests.
 grid meta: (5,) [ox, oy, resolution, rows, cols]; arrays [row, col], row 0 at the bottom.
 """
@@ -27,7 +29,8 @@ from numba import njit
 
 from slam._kernels.insert import _cells_on_segment, _traverse
 
-__all__ = ["estimate_normals", "tsdf_insert", "estimate_normals_ref", "tsdf_insert_ref"]
+__all__ = ["estimate_normals", "tsdf_insert", "cells_under", "estimate_normals_ref", "tsdf_insert_ref",
+           "cells_under_ref"]
 
 _INV_SQRT_2PI = 1.0 / math.sqrt(2.0 * math.pi)
 
@@ -51,21 +54,29 @@ def estimate_normals(origin, hits, num_samples, radius):
     n = hits.shape[0]
     out = np.empty(n)
     half = num_samples // 2
+    # dist[j, t - 1] = |hits[j + t] - hits[j]|: the distance of each pair of a sample window,
+    # computed once for the window tests and the normals of both its points
+    dist = np.empty((n, max(half, 1)))
+    for j in range(n):
+        for t in range(1, min(half, n - 1 - j) + 1):
+            dist[j, t - 1] = math.hypot(hits[j + t, 0] - hits[j, 0], hits[j + t, 1] - hits[j, 1])
     for j in range(n):
         ex, ey = hits[j, 0], hits[j, 1]
         tox, toy = origin[0] - ex, origin[1] - ey
         mx, my = 0.0, 0.0
         lo = j
-        while lo > 0 and j - lo < half and math.hypot(hits[lo - 1, 0] - ex, hits[lo - 1, 1] - ey) < radius:
+        while lo > 0 and j - lo < half and dist[lo - 1, j - lo] < radius:
             lo -= 1
         hi = j
-        while hi < n - 1 and hi - j < half and math.hypot(hits[hi + 1, 0] - ex, hits[hi + 1, 1] - ey) < radius:
+        while hi < n - 1 and hi - j < half and dist[j, hi - j] < radius:
             hi += 1
         for q in range(lo, hi + 1):
-            tx, ty = ex - hits[q, 0], ey - hits[q, 1]
-            d = math.hypot(tx, ty)
-            if q == j or d < 1e-9:
+            if q == j:
                 continue
+            d = dist[q, j - q - 1] if q < j else dist[j, q - j - 1]
+            if d < 1e-9:
+                continue
+            tx, ty = ex - hits[q, 0], ey - hits[q, 1]
             nx, ny = -ty / d, tx / d
             if nx * tox + ny * toy < 0.0:
                 nx, ny = -nx, -ny
@@ -78,11 +89,12 @@ def estimate_normals(origin, hits, num_samples, radius):
 
 
 @njit(cache=True, nogil=True)
-def tsdf_insert(tsd, weight, stamp, scan_id, meta, origin, hits, normals, truncation, max_weight,
+def tsdf_insert(tsd, weight, stamp, match, scan_id, meta, origin, hits, normals, truncation, max_weight,
                 angle_bandwidth, distance_bandwidth):
     """Insert one scan's hits (N, 2) (bearing order) with their normals (N,) from origin (2,).
-    tsd, weight (rows, cols) float64 and stamp (rows, cols) int64 are updated in place.
-    Returns the number of cell updates."""
+    tsd, weight (rows, cols) float64 and stamp (rows, cols) int64 are updated in place, and
+    match (rows, cols) float64, which holds 1 - tsd / truncation, kept so in every cell
+    whose tsd changes. Returns the number of cell updates."""
     ox, oy, res = meta[0], meta[1], meta[2]
     rows, cols = int(meta[3]), int(meta[4])
     path = np.empty((int(4.0 * truncation / res) + 8, 2), np.int64)
@@ -113,9 +125,38 @@ def tsdf_insert(tsd, weight, stamp, scan_id, meta, origin, hits, normals, trunca
             w0 = weight[r, c]
             total = w0 + w
             tsd[r, c] = (tsd[r, c] * w0 + d * w) / total
+            match[r, c] = 1.0 - tsd[r, c] / truncation
             weight[r, c] = min(total, max_weight)
             n_upd += 1
     return n_upd
+
+
+@njit(cache=True, nogil=True)
+def cells_under(meta, xy):
+    """(row, col, inside) of the cells of the grid with meta (5,) under the points xy (N, 2) m;
+    row and col 0 outside the grid."""
+    ox, oy, res = meta[0], meta[1], meta[2]
+    rows, cols = int(meta[3]), int(meta[4])
+    n = xy.shape[0]
+    r = np.zeros(n, np.int64)
+    c = np.zeros(n, np.int64)
+    inside = np.zeros(n, np.bool_)
+    for k in range(n):
+        ck = np.int64(np.floor((xy[k, 0] - ox) / res))
+        rk = np.int64(np.floor((xy[k, 1] - oy) / res))
+        if 0 <= rk < rows and 0 <= ck < cols:
+            r[k] = rk
+            c[k] = ck
+            inside[k] = True
+    return r, c, inside
+
+
+def cells_under_ref(meta, xy):
+    """Reference of cells_under, vectorised."""
+    c = np.floor((xy[:, 0] - meta[0]) / meta[2]).astype(np.int64)
+    r = np.floor((xy[:, 1] - meta[1]) / meta[2]).astype(np.int64)
+    inside = (r >= 0) & (r < meta[3]) & (c >= 0) & (c < meta[4])
+    return np.where(inside, r, 0), np.where(inside, c, 0), inside
 
 
 def estimate_normals_ref(origin, hits, num_samples, radius):
@@ -146,7 +187,7 @@ def estimate_normals_ref(origin, hits, num_samples, radius):
     return out
 
 
-def tsdf_insert_ref(tsd, weight, stamp, scan_id, meta, origin, hits, normals, truncation, max_weight,
+def tsdf_insert_ref(tsd, weight, stamp, match, scan_id, meta, origin, hits, normals, truncation, max_weight,
                     angle_bandwidth, distance_bandwidth):
     """Reference of tsdf_insert (cells of each ray from the sorted grid-line crossings)."""
     def kernel(x, bw):
@@ -180,4 +221,5 @@ def tsdf_insert_ref(tsd, weight, stamp, scan_id, meta, origin, hits, normals, tr
             tsd[r, c] = (tsd[r, c] * weight[r, c] + d * w) / total
             weight[r, c] = min(total, max_weight)
             n_upd += 1
+    match[...] = 1.0 - tsd / truncation
     return n_upd

@@ -21,7 +21,7 @@ import numpy as np
 from slam._kernels.interp import interp_value_grad
 from slam.pose import compose, relative, transform_points
 from slam.graph.config import ConstraintBuilderConfig
-from slam.graph.scan_matching import FastCorrelativeMatcher, ceres_match
+from slam.graph.scan_matching import FastCorrelativeMatcher, angular_step, ceres_match
 from slam.graph.submaps import Submap
 
 __all__ = ["FixedRatioSampler", "LoopConstraint", "ConstraintBuilder", "information_ratio",
@@ -64,6 +64,7 @@ class ConstraintBuilder:
         self.attempts = 0
         self.degenerate = 0
         self.see_through = 0
+        self._step = (None, 0.0, 0.0)     # (points, resolution, angular step) of the last node matched
 
     def add_finished_submap(self, submap: Submap) -> None:
         """Precompute the branch-and-bound grids of a submap that gets no more scans."""
@@ -76,15 +77,30 @@ class ConstraintBuilder:
                 points: np.ndarray, origin: np.ndarray) -> LoopConstraint | None:
         """Try one (finished submap, node) pair; points (N, 2) robot frame, filtered, seen from
         the lidar at origin (2,) robot frame."""
-        if np.hypot(*(node_global[:2] - submap_global[:2])) > self.cfg.max_constraint_distance:
+        if not self.sample([submap.index], submap_global[None, :], node_global[None, :])[0]:
             return None
-        if not self.samplers[submap.index].pulse():
-            return None
+        return self.match(submap, submap_global, node, node_global, points, origin)
+
+    def sample(self, submaps: list, submap_global: np.ndarray, node_global: np.ndarray) -> list:
+        """Which of the (submap, node) pairs, in order, to match: (M,) bool of the submap
+        indices (M,) and the poses (M, 3) of the submaps and the nodes. A pair farther apart
+        than max_constraint_distance is not; the others pulse their submap's sampler."""
+        d = np.hypot(node_global[:, 0] - submap_global[:, 0], node_global[:, 1] - submap_global[:, 1])
+        far = d > self.cfg.max_constraint_distance
+        return [not f and self.samplers[s].pulse() for s, f in zip(submaps, far)]
+
+    def match(self, submap: Submap, submap_global: np.ndarray, node: int, node_global: np.ndarray,
+              points: np.ndarray, origin: np.ndarray) -> LoopConstraint | None:
+        """compute() of a pair that sample() chose."""
         self.attempts += 1
         # Initial guess: the node in the submap's local grid frame via the global poses.
         initial = compose(submap.local_pose, relative(submap_global, node_global))
-        found = self.matchers[submap.index].match(points, initial, self.cfg.min_score,
-                                                  self.cfg.ambiguity_radius, self.cfg.ambiguity_margin)
+        matcher = self.matchers[submap.index]
+        res = matcher.meta[2]
+        if self._step[0] is not points or self._step[1] != res:
+            self._step = (points, res, angular_step(points, res))
+        found = matcher.match(points, initial, self.cfg.min_score, self.cfg.ambiguity_radius,
+                              self.cfg.ambiguity_margin, self._step[2])
         if found is None:
             return None
         pose, score = found

@@ -18,7 +18,9 @@ pose graph ordered submaps first, then nodes in time order, has an "arrow" norma
 nodes meet only their neighbours in time (a narrow band) and the few submaps (the border);
 such a system is solved by a banded Cholesky and the submaps' Schur complement instead
 (`solve_spd`: 2-3x faster than SuperLU on a swirl_l graph of 1900 nodes, the same solution
-to 1e-13).
+to 1e-13). The solver assembles J^T W J of an arrow directly in that form, from one 3x3
+block per pose and per coupled pair (slam.graph._spa_kernel), summing every entry in the
+order of the sparse product, so it gives the same numbers without building J.
 """
 from __future__ import annotations
 
@@ -30,7 +32,9 @@ from scipy.linalg import LinAlgError, cho_factor, cho_solve
 from scipy.sparse.linalg import splu
 
 from slam.graph._band_kernel import band_cholesky_solve
-from slam.pose import relative, wrap_angle
+from slam.graph._spa_kernel import (_COMP, _POSE, _ROW, arrow_border, arrow_parts, border_products,
+                                     normal_blocks)
+from slam.pose import wrap_angle
 
 __all__ = ["Constraints", "spa_residuals", "optimize_poses", "solve_spd"]
 
@@ -62,51 +66,60 @@ class Constraints:
 
 def spa_residuals(poses: np.ndarray, c: Constraints) -> np.ndarray:
     """(C, 3) weighted errors of the constraints at `poses` ((P, 3) global poses)."""
-    rel = relative(poses[c.i], poses[c.j])
+    return _residuals(poses, c, np.cos(c.z[:, 2]), np.sin(c.z[:, 2]))
+
+
+def _residuals(poses: np.ndarray, c: Constraints, ct: np.ndarray, st: np.ndarray) -> np.ndarray:
+    """spa_residuals with the measured yaws' cosines and sines ct, st (C,) given (the solver
+    evaluates the residuals of one problem many times)."""
+    a, b = poses[c.i], poses[c.j]
+    # relative(a, b) = compose(inverse(a), b), the operations of slam.pose on arrays
+    ca, sa = np.cos(a[:, 2]), np.sin(a[:, 2])
+    ix = -ca * a[:, 0] - sa * a[:, 1]
+    iy = sa * a[:, 0] - ca * a[:, 1]
+    ith = wrap_angle(-a[:, 2])
+    cb, sb = np.cos(ith), np.sin(ith)
     # Error expressed in the measured frame z, as Cartographer's ComputeUnscaledError.
-    ct, st = np.cos(c.z[:, 2]), np.sin(c.z[:, 2])
-    dx = rel[:, 0] - c.z[:, 0]
-    dy = rel[:, 1] - c.z[:, 1]
-    ex = ct * dx + st * dy
-    ey = -st * dx + ct * dy
-    et = wrap_angle(rel[:, 2] - c.z[:, 2])
-    return np.stack([c.w_t * ex, c.w_t * ey, c.w_r * et], axis=1)
+    dx = ix + cb * b[:, 0] - sb * b[:, 1] - c.z[:, 0]
+    dy = iy + sb * b[:, 0] + cb * b[:, 1] - c.z[:, 1]
+    out = np.empty((len(c.i), 3))
+    out[:, 0] = c.w_t * (ct * dx + st * dy)
+    out[:, 1] = c.w_t * (-st * dx + ct * dy)
+    out[:, 2] = c.w_r * wrap_angle(wrap_angle(ith + b[:, 2]) - c.z[:, 2])
+    return out
 
 
-def _jacobian(poses: np.ndarray, c: Constraints, free_col: np.ndarray, n_free: int) -> sp.csr_matrix:
-    """Sparse d(residuals)/d(free variables) of spa_residuals, rows 3k..3k+2 for constraint k."""
+def _jacobian_values(poses: np.ndarray, c: Constraints) -> np.ndarray:
+    """(C, 12) the nonzero entries of d(spa_residuals)/d(poses) of each constraint, in the
+    layout of slam.graph._spa_kernel: rows 0 and 1 over (x_j, y_j, x_i, y_i, yaw_i), row 2
+    over (yaw_j, yaw_i)."""
     pi, pj = poses[c.i], poses[c.j]
     th = pi[:, 2]
     dtx = pj[:, 0] - pi[:, 0]
     dty = pj[:, 1] - pi[:, 1]
-    ci, si = np.cos(th), np.sin(th)
-    cz, sz = np.cos(c.z[:, 2]), np.sin(c.z[:, 2])
     # ex = R(z)^T R(th_i)^T (t_j - t_i) - ...; R(z)^T R(th_i)^T = R(th_i + z_th)^T
     ca, sa = np.cos(th + c.z[:, 2]), np.sin(th + c.z[:, 2])
-    del ci, si, cz, sz
-    n = len(c.i)
-    rows, cols, vals = [], [], []
-
-    def add(r_off, var_idx, comp, v):
-        col = free_col[var_idx] * 3 + comp
-        ok = free_col[var_idx] >= 0
-        rows.append((np.arange(n) * 3 + r_off)[ok])
-        cols.append(col[ok])
-        vals.append(np.broadcast_to(v, (n,))[ok])
-
     wt, wr = c.w_t, c.w_r
-    # d ex / d t_j = w_t * [ca, sa]; d ey / d t_j = w_t * [-sa, ca]
-    add(0, c.j, 0, wt * ca); add(0, c.j, 1, wt * sa)
-    add(1, c.j, 0, -wt * sa); add(1, c.j, 1, wt * ca)
-    add(0, c.i, 0, -wt * ca); add(0, c.i, 1, -wt * sa)
-    add(1, c.i, 0, wt * sa); add(1, c.i, 1, -wt * ca)
-    # d/d th_i of [ca*dtx + sa*dty, -sa*dtx + ca*dty]
-    add(0, c.i, 2, wt * (-sa * dtx + ca * dty))
-    add(1, c.i, 2, wt * (-ca * dtx - sa * dty))
-    add(2, c.j, 2, wr)
-    add(2, c.i, 2, -wr)
-    return sp.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
-                         shape=(3 * n, 3 * n_free))
+    out = np.empty((len(c.i), 12))
+    # d ex / d t_j = w_t * [ca, sa]; d ey / d t_j = w_t * [-sa, ca]; d/d th_i of
+    # [ca*dtx + sa*dty, -sa*dtx + ca*dty]
+    out[:, 0], out[:, 1], out[:, 2], out[:, 3] = wt * ca, wt * sa, -wt * ca, -wt * sa
+    out[:, 4] = wt * (-sa * dtx + ca * dty)
+    out[:, 5], out[:, 6], out[:, 7], out[:, 8] = -wt * sa, wt * ca, wt * sa, -wt * ca
+    out[:, 9] = wt * (-ca * dtx - sa * dty)
+    out[:, 10], out[:, 11] = wr, -wr
+    return out
+
+
+def _jacobian(poses: np.ndarray, c: Constraints, free_col: np.ndarray, n_free: int) -> sp.csr_matrix:
+    """Sparse d(residuals)/d(free variables) of spa_residuals, rows 3k..3k+2 for constraint k."""
+    jv = _jacobian_values(poses, c)
+    n = len(c.i)
+    var = np.stack([free_col[c.j], free_col[c.i]], axis=1)[:, _POSE]          # (C, 12)
+    ok = var >= 0
+    rows = (3 * np.arange(n)[:, None] + _ROW[None, :])[ok]
+    cols = (3 * var + _COMP[None, :])[ok]
+    return sp.csr_matrix((jv[ok], (rows, cols)), shape=(3 * n, 3 * n_free))
 
 
 def optimize_poses(poses: np.ndarray, c: Constraints, fixed: np.ndarray | None = None,
@@ -143,13 +156,14 @@ def optimize_poses(poses: np.ndarray, c: Constraints, fixed: np.ndarray | None =
         p[free_idx] += x.reshape(-1, 3)
         return p
 
+    ct, st = np.cos(c.z[:, 2]), np.sin(c.z[:, 2])
+
     def fun(x):
-        return spa_residuals(current(x), c).reshape(-1)
+        return _residuals(current(x), c, ct, st).reshape(-1)
 
-    def jac(x):
-        return _jacobian(current(x), c, free_col, len(free_idx))
-
-    x = _sparse_lm(fun, jac, x0, robust_rows, huber_scale, max_iterations, tolerance)
+    normal = _NormalEquations(c, free_col, len(free_idx), robust_rows.any())
+    x = _sparse_lm(fun, lambda x, w, f: normal(current(x), w, f), x0, robust_rows, huber_scale,
+                   max_iterations, tolerance)
     out = current(x)
     out[:, 2] = wrap_angle(out[:, 2])
     return out
@@ -184,6 +198,10 @@ def _arrow_border(A: sp.csc_matrix, band: int) -> int:
     return int(np.minimum(coo.row[far], coo.col[far]).max()) + 1
 
 
+def _use_arrow(n: int, k: int) -> bool:
+    return (n - k) * (k + 1) <= _MAX_DENSE and n - k >= 4 * _MAX_BAND
+
+
 def solve_spd(A: sp.spmatrix, g: np.ndarray) -> np.ndarray:
     """x with A x = g for a sparse symmetric positive definite A.
 
@@ -194,44 +212,105 @@ def solve_spd(A: sp.spmatrix, g: np.ndarray) -> np.ndarray:
     A = sp.csc_matrix(A)
     n = A.shape[0]
     k = _arrow_border(A, _MAX_BAND)
-    if (n - k) * (k + 1) > _MAX_DENSE or n - k < 4 * _MAX_BAND:
+    if not _use_arrow(n, k):
         return splu(A, permc_spec=_PERMC).solve(g)
     B = A[k:, k:].tocoo()
     upper = B.row <= B.col
     ab = np.zeros((_MAX_BAND + 1, n - k))
     ab[_MAX_BAND + B.row[upper] - B.col[upper], B.col[upper]] = B.data[upper]
-    Ct = A[:k, k:].tocsr()            # the border's coupling to the band (sparse: C^T = A[:k, k:])
-    rhs, ok = band_cholesky_solve(ab, np.column_stack([Ct.T.toarray(), g[k:]]))
+    Ct = np.zeros((n - k, k + 1))
+    Ct[:, :k] = A[:k, k:].T.toarray()
+    return _solve_arrow(ab, Ct, A[:k, :k].toarray(), g)
+
+
+def _solve_arrow(ab: np.ndarray, Ct: np.ndarray, S: np.ndarray, g: np.ndarray) -> np.ndarray:
+    """x with A x = g for the arrow A of border block S (k, k) (upper triangle read), coupling
+    Ct[:, :k] (n-k, k) = A[k:, :k] and band ab (LAPACK upper storage of A[k:, k:]); Ct's last
+    column is overwritten with g[k:]."""
+    k = len(S)
+    Ct[:, k] = g[k:]
+    rhs, ok = band_cholesky_solve(ab, Ct)
     if not ok:
         raise LinAlgError("solve_spd: the matrix is not positive definite")
     if k == 0:
         return rhs[:, 0]
     BinvC, Binvg = rhs[:, :k], rhs[:, k]
-    S = A[:k, :k].toarray() - Ct @ BinvC
-    x1 = cho_solve(cho_factor(S), g[:k] - Ct @ Binvg)
+    P, v = border_products(Ct, rhs)
+    x1 = cho_solve(cho_factor(S - P), g[:k] - v)
     return np.concatenate([x1, Binvg - BinvC @ x1])
 
 
-def _sparse_lm(fun, jac, x0: np.ndarray, robust_rows: np.ndarray, delta: float, max_iterations: int,
+class _NormalEquations:
+    """J^T W J and J^T W f of one problem at given poses: as arrow blocks (slam.graph._spa_kernel)
+    or, for a graph that is no arrow, as a sparse matrix."""
+
+    def __init__(self, c: Constraints, free_col: np.ndarray, n_free: int, robust: bool):
+        self.c, self.free_col, self.n_free, self.robust = c, free_col, n_free, robust
+        fi, fj = free_col[c.i], free_col[c.j]
+        both = (fi >= 0) & (fj >= 0)
+        lo, hi = np.minimum(fi, fj)[both], np.maximum(fi, fj)[both]
+        keys, pair = np.unique(lo * n_free + hi, return_inverse=True)
+        self.idx = np.stack([fi, fj, -np.ones_like(fi)], axis=1)
+        self.idx[both, 2] = pair.reshape(-1)
+        self.pair_lo, self.pair_hi = keys // max(n_free, 1), keys % max(n_free, 1)
+        # a constraint of a pose to itself puts two entries in one Jacobian cell
+        self.blocks = bool(np.all(c.i != c.j))
+
+    def __call__(self, poses: np.ndarray, w: np.ndarray, f: np.ndarray):
+        """(system with .solve(damping (n,), g) -> x, g (n,), diagonal (n,)) at poses (P, 3),
+        IRLS weights w and residuals f (3C,)."""
+        if self.blocks:
+            diag, off, g = normal_blocks(_jacobian_values(poses, self.c), self.idx, w, f, self.n_free,
+                                         len(self.pair_lo))
+            k = arrow_border(off, self.pair_lo, self.pair_hi, _MAX_BAND)
+            if _use_arrow(3 * self.n_free, k):
+                ab, Ct, S, d = arrow_parts(diag, off, self.pair_lo, self.pair_hi, k, _MAX_BAND)
+                return _ArrowSystem(ab, Ct, S), g, d
+        J = _jacobian(poses, self.c, self.free_col, self.n_free)
+        JW = J.T.multiply(w).tocsr() if self.robust else J.T.tocsr()
+        A = (JW @ J).tocsc()
+        return _SparseSystem(A), JW @ f, A.diagonal()
+
+
+class _ArrowSystem:
+    def __init__(self, ab: np.ndarray, Ct: np.ndarray, S: np.ndarray):
+        self.ab, self.Ct, self.S = ab, Ct, S
+
+    def solve(self, damping: np.ndarray, g: np.ndarray) -> np.ndarray:
+        """x with (A + diag(damping)) x = g."""
+        k = len(self.S)
+        ab = self.ab.copy()
+        ab[_MAX_BAND] += damping[k:]
+        S = self.S.copy()
+        S[np.diag_indices(k)] += damping[:k]
+        return _solve_arrow(ab, self.Ct, S, g)
+
+
+class _SparseSystem:
+    def __init__(self, A: sp.csc_matrix):
+        self.A = A
+
+    def solve(self, damping: np.ndarray, g: np.ndarray) -> np.ndarray:
+        """x with (A + diag(damping)) x = g."""
+        return solve_spd(self.A + sp.diags(damping, format="csc"), g)
+
+
+def _sparse_lm(fun, normal, x0: np.ndarray, robust_rows: np.ndarray, delta: float, max_iterations: int,
                tolerance: float) -> np.ndarray:
-    """Levenberg-Marquardt on the normal equations (J^T W J + lam D) dx = -J^T W f, sparse LU."""
+    """Levenberg-Marquardt on the normal equations (J^T W J + lam D) dx = -J^T W f;
+    normal(x, w, f) -> (system, J^T W f, diagonal of J^T W J)."""
     x = x0.copy()
     f = fun(x)
     cost, w = _huber(f, robust_rows, delta)
     lam = 1e-4
-    n = len(x)
     for _ in range(max_iterations):
-        J = jac(x)
-        JW = J.T.multiply(w).tocsr() if robust_rows.any() else J.T.tocsr()
-        A = (JW @ J).tocsc()
-        g = JW @ f
+        system, g, d = normal(x, w, f)
         if np.max(np.abs(g)) <= tolerance * max(1.0, cost):
             break
-        d = A.diagonal()
         d = np.maximum(d, 1e-12 * max(1.0, d.max()))
         while True:
             try:
-                dx = -solve_spd(A + sp.diags(lam * d, format="csc"), g)
+                dx = -system.solve(lam * d, g)
             except (RuntimeError, LinAlgError):          # singular: more damping
                 lam *= 10.0
                 if lam > 1e12:

@@ -58,14 +58,10 @@ class PoseGraph:
         self.node_origins.append(np.zeros(2) if origin is None else np.asarray(origin, float)[:2].copy())
         self.node_submaps.append(tuple(inserted_into))
         if self.cfg.enable_loop_closure:
-            for s in self.builder.matchers:
-                if s not in inserted_into:
-                    self._try(s, node)
+            self._search([(s, node) for s in self.builder.matchers if s not in inserted_into])
             for s in finished:
                 self.builder.add_finished_submap(self.submaps[s])
-                for n in range(node + 1):
-                    if s not in self.node_submaps[n]:
-                        self._try(s, n)
+                self._search([(s, n) for n in range(node + 1) if s not in self.node_submaps[n]])
         self._since_opt += 1
         if self.cfg.optimize_every_n_nodes > 0 and self._since_opt >= self.cfg.optimize_every_n_nodes:
             if len(self.loops) != self._loops_at_opt:
@@ -77,11 +73,19 @@ class PoseGraph:
                 self._since_opt = 0
         return node
 
-    def _try(self, s: int, n: int) -> None:
-        c = self.builder.compute(self.submaps[s], self.submap_global[s], n, self.node_global[n],
-                                 self.node_points[n], self.node_origins[n])
-        if c is not None:
-            self.loops.append(c)
+    def _search(self, pairs: list[tuple[int, int]]) -> None:
+        """Search loop closures for (submap, node) pairs, in order."""
+        if not pairs:
+            return
+        subs = [s for s, _ in pairs]
+        sg = np.array([self.submap_global[s] for s in subs])
+        ng = np.array([self.node_global[n] for _, n in pairs])
+        for (s, n), chosen in zip(pairs, self.builder.sample(subs, sg, ng)):
+            if chosen:
+                c = self.builder.match(self.submaps[s], self.submap_global[s], n, self.node_global[n],
+                                       self.node_points[n], self.node_origins[n])
+                if c is not None:
+                    self.loops.append(c)
 
     def constraints(self) -> Constraints:
         """All constraints over the variables [submaps..., nodes...]."""

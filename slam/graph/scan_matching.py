@@ -16,7 +16,8 @@ import math
 
 import numpy as np
 
-from slam.graph._correlative_kernel import bnb_search, discretize_rotations, max_grids, score_candidates
+from slam.graph._correlative_kernel import (bnb_margin, bnb_search, discretize_rotations, max_grids,
+                                           score_candidates)
 from slam.graph._match_kernel import match_lm
 from slam.graph.config import CeresScanMatcherConfig, FastCorrelativeConfig, RealTimeCorrelativeConfig
 
@@ -39,8 +40,8 @@ def discretize(points: np.ndarray, pose: np.ndarray, yaws: np.ndarray, meta: np.
                                 float(meta[2]))
 
 
-def _window(points, meta, linear, angular):
-    step = angular_step(points, meta[2])
+def _window(points, meta, linear, angular, step=None):
+    step = angular_step(points, meta[2]) if step is None else step
     n_ang = int(math.ceil(angular / step))
     wxy = int(math.ceil(linear / meta[2]))
     return step, n_ang, wxy
@@ -90,27 +91,33 @@ class FastCorrelativeMatcher:
     def __init__(self, prob: np.ndarray, meta: np.ndarray, cfg: FastCorrelativeConfig):
         self.cfg = cfg
         self.meta = np.asarray(meta, np.float64)
-        self.grids = max_grids(np.asarray(prob, np.float32), cfg.branch_and_bound_depth)
+        depth = cfg.branch_and_bound_depth
+        w = int(math.ceil(cfg.linear_search_window / self.meta[2]))
+        self.margin = bnb_margin(depth, w, w)
+        self.grids = max_grids(np.asarray(prob, np.float32), depth, self.margin)
 
     def match(self, points: np.ndarray, pose: np.ndarray, min_score: float, ambiguity_radius: float = 0.0,
-              ambiguity_margin: float = 0.0) -> tuple[np.ndarray, float] | None:
+              ambiguity_margin: float = 0.0, step: float | None = None) -> tuple[np.ndarray, float] | None:
         """Search around `pose` (3,) in the submap's frame; (best pose, score) or None.
 
         ambiguity_radius > 0 (m, ours): also reject the match when a pose farther than this
         from the best one scores within ambiguity_margin of it (a corridor, a repeated room).
+        step: angular_step(points, resolution) when the caller has it (one node's points are
+        matched against many submaps).
         """
         if len(points) == 0:
             return None
         step, n_ang, w = _window(points, self.meta, self.cfg.linear_search_window,
-                                 self.cfg.angular_search_window)
+                                 self.cfg.angular_search_window, step)
         offsets = np.arange(-n_ang, n_ang + 1) * step
         cells = discretize(points, pose, pose[2] + offsets, self.meta)
-        k, dx, dy, score = bnb_search(self.grids, cells, w, w, float(min_score), 0, 0, -1)
+        k, dx, dy, score = bnb_search(self.grids, self.margin, cells, w, w, float(min_score), 0, 0, -1)
         if k < 0:
             return None
         if ambiguity_radius > 0:
             r = int(math.ceil(ambiguity_radius / self.meta[2]))
-            k2, *_ = bnb_search(self.grids, cells, w, w, float(score - ambiguity_margin), dx, dy, r)
+            k2, *_ = bnb_search(self.grids, self.margin, cells, w, w, float(score - ambiguity_margin),
+                                dx, dy, r)
             if k2 >= 0:
                 return None
         res = self.meta[2]

@@ -37,6 +37,14 @@ class Submap:
         self.finished = False
         self._cache = (-1, None)
 
+    def prepare(self, origin_xy: np.ndarray, hits_xy: np.ndarray, misses_xy: np.ndarray) -> tuple:
+        """The scan in the form insert_prepared takes (as given: nothing to share)."""
+        return origin_xy, hits_xy, misses_xy
+
+    def insert_prepared(self, scan: tuple) -> None:
+        """Insert a scan from prepare()."""
+        self.insert(*scan)
+
     def insert(self, origin_xy: np.ndarray, hits_xy: np.ndarray, misses_xy: np.ndarray) -> None:
         """Insert one scan: origin (2,), hits (N, 2), misses (M, 2), all local frame m."""
         if self.finished:
@@ -104,8 +112,9 @@ class ActiveSubmaps:
         if not self.active:
             created.append(self._add(origin_xy))
         inserted = [s.index for s in self.active]
+        scan = self.active[0].prepare(origin_xy, hits_xy, misses_xy)    # once for both submaps
         for s in self.active:
-            s.insert(origin_xy, hits_xy, misses_xy)
+            s.insert_prepared(scan)
         if self.active[0].num_range_data >= 2 * self.cfg.num_range_data:
             self.active[0].finished = True
             finished.append(self.active.pop(0).index)

@@ -20,42 +20,67 @@ from __future__ import annotations
 
 import numpy as np
 
-from slam.graph._tsdf_kernel import estimate_normals, tsdf_insert
+from slam.graph._tsdf_kernel import cells_under, estimate_normals, tsdf_insert
 from slam.occupancy import GrowingGrid
 
-__all__ = ["TsdfGrid", "TsdfSubmap"]
+__all__ = ["TsdfGrid", "TsdfSubmap", "tsdf_scan"]
 
 
 class TsdfGrid(GrowingGrid):
-    """A growing TSDF: layers tsd (m), weight, and the id of the scan that last updated a cell."""
+    """A growing TSDF: layers tsd (m), weight, the id of the scan that last updated a cell, and
+    match = 1 - tsd / truncation (the least squares' grid, kept up to date by the insertion)."""
 
     def __init__(self, resolution: float, center, truncation: float, **kw):
         self.truncation = float(truncation)
         self.scans = 0
         super().__init__(resolution, center, **kw)
+        self._meta = (None, None)
+
+    @property
+    def meta(self) -> np.ndarray:
+        """(5,) [ox, oy, resolution, rows, cols] for the kernels, kept until the grid grows
+        (the matchers ask for it on every scan)."""
+        key = (self._i0, self._j0, self.tsd.shape)
+        if self._meta[0] != key:
+            self._meta = (key, GrowingGrid.meta.fget(self))
+        return self._meta[1]
 
     def _layers(self) -> tuple:
-        return (("tsd", self.truncation, np.float64), ("weight", 0.0, np.float64), ("stamp", 0, np.int64))
+        return (("tsd", self.truncation, np.float64), ("weight", 0.0, np.float64), ("stamp", 0, np.int64),
+                ("match", 0.0, np.float64))
 
     def insert(self, origin_xy: np.ndarray, hits_xy: np.ndarray, opts) -> int:
         """Insert the hits (N, 2) of one scan taken from origin (2,), world frame m; opts: a
         TsdfInserterConfig. Returns the number of cell updates."""
-        origin = np.ascontiguousarray(np.asarray(origin_xy, np.float64)[:2])
-        hits = np.asarray(hits_xy, np.float64).reshape(-1, 2)
+        return self.insert_sorted(*tsdf_scan(origin_xy, hits_xy, opts), opts)
+
+    def insert_sorted(self, origin: np.ndarray, hits: np.ndarray, normals: np.ndarray, opts) -> int:
+        """insert() of a scan already put in the inserter's form by tsdf_scan."""
         self.scans += 1
         if len(hits) == 0:
             return 0
-        order = np.argsort(np.arctan2(hits[:, 1] - origin[1], hits[:, 0] - origin[0]), kind="mergesort")
-        hits = np.ascontiguousarray(hits[order])
-        normals = estimate_normals(origin, hits, int(opts.num_normal_samples), float(opts.sample_radius))
         allp = np.vstack([hits, origin[None, :]])
         self.ensure(allp.min(axis=0) - self.truncation, allp.max(axis=0) + self.truncation)
-        n = tsdf_insert(self.tsd, self.weight, self.stamp, self.scans, self.meta, origin, hits, normals,
-                        self.truncation, float(opts.maximum_weight),
+        n = tsdf_insert(self.tsd, self.weight, self.stamp, self.match, self.scans, self.meta, origin, hits,
+                        normals, self.truncation, float(opts.maximum_weight),
                         float(opts.update_weight_angle_scan_normal_to_ray_kernel_bandwidth),
                         float(opts.update_weight_distance_cell_to_hit_kernel_bandwidth))
         self.version += 1
         return int(n)
+
+
+def tsdf_scan(origin_xy: np.ndarray, hits_xy: np.ndarray, opts) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """One scan as the TSDF inserter takes it: (origin (2,), hits (N, 2) in bearing order from
+    the origin, their normal angles (N,) rad); opts: a TsdfInserterConfig. Computed once for
+    the two active submaps a scan goes into."""
+    origin = np.ascontiguousarray(np.asarray(origin_xy, np.float64)[:2])
+    hits = np.asarray(hits_xy, np.float64).reshape(-1, 2)
+    if len(hits) == 0:
+        return origin, hits, np.zeros(0)
+    order = np.argsort(np.arctan2(hits[:, 1] - origin[1], hits[:, 0] - origin[0]), kind="mergesort")
+    hits = np.ascontiguousarray(hits[order])
+    normals = estimate_normals(origin, hits, int(opts.num_normal_samples), float(opts.sample_radius))
+    return origin, hits, normals
 
 
 class TsdfSubmap:
@@ -74,9 +99,17 @@ class TsdfSubmap:
     def insert(self, origin_xy: np.ndarray, hits_xy: np.ndarray, misses_xy: np.ndarray) -> None:
         """Insert one scan: origin (2,), hits (N, 2), misses (ignored: no free-space update, as
         Cartographer's default update_free_space = false), all local frame m."""
+        self.insert_prepared(self.prepare(origin_xy, hits_xy, misses_xy))
+
+    def prepare(self, origin_xy: np.ndarray, hits_xy: np.ndarray, misses_xy: np.ndarray) -> tuple:
+        """The scan in the form insert_prepared takes (the same for every TSDF submap)."""
+        return tsdf_scan(origin_xy, hits_xy, self.cfg.tsdf)
+
+    def insert_prepared(self, scan: tuple) -> None:
+        """Insert a scan from prepare()."""
         if self.finished:
             raise RuntimeError(f"submap {self.index} is finished")
-        self.grid.insert(origin_xy, hits_xy, self.cfg.tsdf)
+        self.grid.insert_sorted(*scan, self.cfg.tsdf)
         self.num_range_data += 1
 
     def _cached(self, name, make):
@@ -88,8 +121,7 @@ class TsdfSubmap:
 
     def probabilities(self) -> tuple[np.ndarray, np.ndarray]:
         """((rows, cols) 1 - tsd / truncation, never observed 0; (5,) grid meta)."""
-        g = self.grid
-        return self._cached("match", lambda: 1.0 - g.tsd / g.truncation), g.meta
+        return self.grid.match, self.grid.meta
 
     def search_grid(self) -> tuple[np.ndarray, np.ndarray]:
         """((rows, cols) 1 - |tsd| / truncation in [0, 1], never observed 0; (5,) grid meta)."""
@@ -98,11 +130,11 @@ class TsdfSubmap:
 
     def known_at(self, xy: np.ndarray) -> np.ndarray:
         """(N,) bool: the cell under each point (N, 2) local frame m has been observed."""
-        r, c, inside = self.grid.cells(xy)
+        r, c, inside = cells_under(self.grid.meta, np.ascontiguousarray(xy, np.float64))
         return inside & (self.grid.weight[r, c] > 0)
 
     def probability_at(self, xy: np.ndarray) -> np.ndarray:
         """(N,) 1 - tsd / truncation clipped to [0, 1] under each point; NaN where never observed."""
-        r, c, inside = self.grid.cells(xy)
+        r, c, inside = cells_under(self.grid.meta, np.ascontiguousarray(xy, np.float64))
         p = np.clip(1.0 - self.grid.tsd[r, c] / self.grid.truncation, 0.0, 1.0)
         return np.where(inside & (self.grid.weight[r, c] > 0), p, np.nan)

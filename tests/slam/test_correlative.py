@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from slam.graph._correlative_kernel import (best_candidate_ref, bnb_search, discretize_rotations,
+from slam.graph._correlative_kernel import (best_candidate_ref, bnb_margin, bnb_search, discretize_rotations,
                                        discretize_rotations_ref, max_grids, max_grids_ref,
                                        score_candidates, score_candidates_ref)
 
@@ -14,11 +14,20 @@ def _problem(rng, rows=40, cols=50, K=5, P=30, w=9):
     return grid, cells, w
 
 
+def _bnb(grid, depth, cells, wx, wy, min_score, ex_x=0, ex_y=0, ex_r=-1, extra=0):
+    """bnb_search on the max grids of `grid` with the margin it needs (plus `extra`)."""
+    m = bnb_margin(depth, wx, wy) + extra
+    return bnb_search(max_grids(grid, depth, m), m, cells, wx, wy, min_score, ex_x, ex_y, ex_r)
+
+
 @pytest.mark.kernel
 @pytest.mark.parametrize("depth", [0, 1, 3])
 def test_max_grids_matches_reference(rng, depth):
     grid = rng.random((13, 17)).astype(np.float32)
-    np.testing.assert_array_equal(max_grids(grid, depth), max_grids_ref(grid, depth))
+    np.testing.assert_array_equal(max_grids(grid, depth, 0), max_grids_ref(grid, depth))
+    m = 5
+    np.testing.assert_array_equal(max_grids(grid, depth, m),
+                                  np.pad(max_grids_ref(grid, depth), ((0, 0), (m, m), (m, m))))
 
 
 @pytest.mark.kernel
@@ -44,8 +53,7 @@ def test_score_candidates_matches_reference(rng):
 def test_branch_and_bound_equals_brute_force(seed, depth):
     rng = np.random.default_rng(seed)
     grid, cells, w = _problem(rng, w=5 + seed)
-    grids = max_grids(grid, depth)
-    k, dx, dy, s = bnb_search(grids, cells, w, w + 1, 0.0, 0, 0, -1)
+    k, dx, dy, s = _bnb(grid, depth, cells, w, w + 1, 0.0, extra=seed % 3)
     rk, rdx, rdy, rs = best_candidate_ref(grid, cells, w, w + 1)
     assert (k, dx, dy) == (rk, rdx, rdy)
     assert s == pytest.approx(rs, rel=1e-5)
@@ -55,10 +63,30 @@ def test_branch_and_bound_equals_brute_force(seed, depth):
 def test_branch_and_bound_respects_min_score(rng):
     grid, cells, w = _problem(rng)
     _, _, _, best = best_candidate_ref(grid, cells, w, w)
-    k, *_ = bnb_search(max_grids(grid, 3), cells, w, w, best + 1e-3, 0, 0, -1)
+    k, *_ = _bnb(grid, 3, cells, w, w, best + 1e-3)
     assert k == -1
-    k, *_ = bnb_search(max_grids(grid, 3), cells, w, w, best - 1e-3, 0, 0, -1)
+    k, *_ = _bnb(grid, 3, cells, w, w, best - 1e-3)
     assert k >= 0
+
+
+@pytest.mark.kernel
+def test_branch_and_bound_scores_points_far_off_the_grid_as_zero(rng):
+    grid, cells, w = _problem(rng)
+    far = cells.copy()
+    far[:, ::3, 0] += 10_000                  # a third of the points far beyond the grid
+    far[:, 1::3, 1] -= 10_000
+    k, dx, dy, s = _bnb(grid, 3, far, w, w, 0.0)
+    rk, rdx, rdy, rs = best_candidate_ref(grid, far, w, w)
+    assert (k, dx, dy) == (rk, rdx, rdy)
+    assert s == pytest.approx(rs, rel=1e-5)
+
+
+@pytest.mark.kernel
+def test_branch_and_bound_refuses_a_margin_too_small(rng):
+    grid, cells, w = _problem(rng)
+    m = bnb_margin(3, w, w) - 1
+    with pytest.raises(ValueError):
+        bnb_search(max_grids(grid, 3, m), m, cells, w, w, 0.0, 0, 0, -1)
 
 
 @pytest.mark.kernel
@@ -68,7 +96,7 @@ def test_branch_and_bound_with_exclusion_equals_brute_force(seed):
     grid, cells, w = _problem(rng, w=8)
     k0, dx0, dy0, _ = best_candidate_ref(grid, cells, w, w)
     ex = (dx0, dy0, 1 + seed % 3)
-    k, dx, dy, s = bnb_search(max_grids(grid, 3), cells, w, w, 0.0, *ex)
+    k, dx, dy, s = _bnb(grid, 3, cells, w, w, 0.0, *ex)
     rk, rdx, rdy, rs = best_candidate_ref(grid, cells, w, w, exclude=ex)
     assert (k, dx, dy) == (rk, rdx, rdy)
     assert max(abs(dx - dx0), abs(dy - dy0)) > ex[2]

@@ -3,7 +3,8 @@ submap interface the matchers read, and scan matching on them."""
 import numpy as np
 import pytest
 
-from slam.graph._tsdf_kernel import estimate_normals, estimate_normals_ref, tsdf_insert, tsdf_insert_ref
+from slam.graph._tsdf_kernel import (cells_under, cells_under_ref, estimate_normals, estimate_normals_ref, tsdf_insert,
+                                    tsdf_insert_ref)
 from slam.graph.config import CeresScanMatcherConfig, SubmapsConfig, TsdfInserterConfig
 from slam.graph.scan_matching import ceres_match
 from slam.graph.submaps import ActiveSubmaps, Submap
@@ -47,7 +48,8 @@ def test_tsdf_insert_equals_reference(seed, bw_angle, bw_dist):
     rng = np.random.default_rng(seed)
     res, trunc = 0.05, 0.15
     meta = np.array([-4.0, -4.0, res, 160, 160])
-    grids = [(np.full((160, 160), trunc), np.zeros((160, 160)), np.zeros((160, 160), np.int64)) for _ in range(2)]
+    grids = [(np.full((160, 160), trunc), np.zeros((160, 160)), np.zeros((160, 160), np.int64), np.zeros((160, 160)))
+             for _ in range(2)]
     for scan in range(1, 4):      # several scans: weights accumulate and saturate, stamps change
         origin = np.array([0.3, -0.2]) + rng.normal(0, 0.05, 2)
         hits = _scan_cloud(rng)
@@ -137,3 +139,14 @@ def test_scan_matches_back_onto_its_submap(grid_type, tolerance, degrees):
     got = ceres_match(prob, meta, hits, start, start,
                       CeresScanMatcherConfig(translation_weight=0.01, rotation_weight=0.01), w)
     assert np.hypot(*(got - truth)[:2]) < tolerance and abs(got[2]) < np.radians(degrees)
+
+
+@pytest.mark.kernel
+def test_cells_under_matches_reference_and_the_grid(rng):
+    grid = TsdfGrid(0.05, (0.3, -0.2), truncation=0.1)
+    xy = rng.uniform(-6, 6, (500, 2))
+    got = cells_under(grid.meta, xy)
+    for a, b, c in zip(got, cells_under_ref(grid.meta, xy), grid.cells(xy)):
+        np.testing.assert_array_equal(a, b)
+        np.testing.assert_array_equal(a, c)
+    assert got[2].any() and not got[2].all()
