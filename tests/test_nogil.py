@@ -8,7 +8,7 @@ KERNELS = {
     "slam._kernels.insert": ["insert_rays_inplace"],
     "slam._kernels.gauss_newton": ["gn_iterate", "gn_normal_equations"],
     "slam.pf._match_kernel": ["hill_climb", "proposal_moments"],
-    "slam.pf._map_kernel": ["insert_scans", "mark_touched", "privatize", "patch_box", "read_patch"],
+    "slam.pf._map_kernel": ["insert_scans", "tiles_bound", "patch_box", "read_patch"],
     "slam.pf._refine_kernel": ["mean_hit_iterate"],
     "slam.pf._proposal_kernel": ["propose_particles"],
     "slam.graph._match_kernel": ["match_lm"],

@@ -20,9 +20,9 @@ Kernels (compiled) and their plain references (dense arrays, brute force):
   patch_box        the box of cells a particle's scan matching reads
   read_patch       one particle's map over a box as dense arrays <-> read_patch_ref
   ray_cells        Amanatides-Woo cell walk      <-> ray_cells_ref (segment/box clipping)
-  mark_touched     the tiles a scan insertion writes that a particle does not own alone
-  privatize        copy-on-write of the marked tiles
-  insert_scans     count updates along the beams <-> insert_scan_ref (dense counters)
+  tiles_bound      how many tiles a scan insertion can make a particle's own
+  insert_scans     count updates along the beams, copying shared tiles on first write
+                   <-> insert_scan_ref (dense counters)
 """
 from __future__ import annotations
 
@@ -33,8 +33,8 @@ from numba import njit
 
 from slam._kernels.insert import axis_walk
 
-__all__ = ["N_FIELDS", "patch_box", "read_patch", "read_patch_ref", "ray_cells", "mark_touched",
-           "privatize", "insert_scans",
+__all__ = ["N_FIELDS", "patch_box", "read_patch", "read_patch_ref", "ray_cells", "tiles_bound",
+           "insert_scans",
            "beam_world", "ray_cells_ref", "insert_scan_ref"]
 
 N_FIELDS = 4
@@ -156,89 +156,58 @@ def ray_buffer_len(poses, origin, ends, res):
 
 
 @njit(cache=True, nogil=True)
-def mark_touched(tables, refcount, grid_meta, poses, origin, ends):
-    """(M, 3) int64 particle, tile row, tile column of the tiles that inserting `ends` at
-    each of `poses` writes to and that the particle does not own alone (never written, or
-    shared with another particle): the tiles to privatize before the insertion.
-
-    tables: (N, TR, TC) int32; refcount: (cap,) int32; poses: (N, 3) robot poses; origin:
-    (2,) lidar in the robot frame; ends: (K, 2) robot frame.
-    """
-    ox, oy, res = grid_meta[0], grid_meta[1], grid_meta[2]
-    rows, cols, shift = int(grid_meta[3]), int(grid_meta[4]), int(grid_meta[5])
-    n = poses.shape[0]
-    seen = np.zeros(tables.shape, dtype=np.bool_)
-    todo = np.empty((64, 3), dtype=np.int64)
-    n_todo = 0
-    m = ray_buffer_len(poses, origin, ends, res)
-    buf_c = np.empty(m, dtype=np.int64)
-    buf_r = np.empty(m, dtype=np.int64)
-    for p in range(n):
+def tiles_bound(grid_meta, poses, origin, ends):
+    """An upper bound of the tiles inserting `ends` at `poses` can write: per particle, the
+    tiles of the bounding box of its lidar origin and beam ends (the free pool slots
+    insert_scans may need)."""
+    ox, oy, res, shift = grid_meta[0], grid_meta[1], grid_meta[2], int(grid_meta[5])
+    total = 0
+    for p in range(poses.shape[0]):
         o, w = beam_world(poses[p], origin, ends)
-        u0 = (o[0] - ox) / res
-        v0 = (o[1] - oy) / res
+        x0, x1, y0, y1 = o[0], o[0], o[1], o[1]
         for k in range(w.shape[0]):
-            cnt = ray_cells(u0, v0, (w[k, 0] - ox) / res, (w[k, 1] - oy) / res, buf_c, buf_r)
-            for i in range(cnt):
-                c = buf_c[i]
-                r = buf_r[i]
-                if r < 0 or r >= rows or c < 0 or c >= cols:
-                    continue
-                tr = r >> shift
-                tc = c >> shift
-                if seen[p, tr, tc]:
-                    continue
-                seen[p, tr, tc] = True
-                t = tables[p, tr, tc]
-                if t >= 0 and refcount[t] == 1:
-                    continue
-                if n_todo == todo.shape[0]:
-                    grown = np.empty((2 * n_todo, 3), dtype=np.int64)
-                    grown[:n_todo] = todo
-                    todo = grown
-                todo[n_todo, 0] = p
-                todo[n_todo, 1] = tr
-                todo[n_todo, 2] = tc
-                n_todo += 1
-    return todo[:n_todo].copy()
+            x0, x1 = min(x0, w[k, 0]), max(x1, w[k, 0])
+            y0, y1 = min(y0, w[k, 1]), max(y1, w[k, 1])
+        c0 = int(math.floor((x0 - ox) / res)) >> shift
+        c1 = int(math.floor((x1 - ox) / res)) >> shift
+        r0 = int(math.floor((y0 - oy) / res)) >> shift
+        r1 = int(math.floor((y1 - oy) / res)) >> shift
+        # one tile of slack on each side: a ray's cell walk may round across a tile edge
+        total += (c1 - c0 + 3) * (r1 - r0 + 3)
+    return total
 
 
 @njit(cache=True, nogil=True)
-def privatize(tables, pool, refcount, todo, free_slots):
-    """Give each (p, tile_row, tile_col) of `todo` a tile of its own, in place.
-
-    tables: (N, TR, TC) int32; pool: (cap, T, T, 4) float32; refcount: (cap,) int32 (number
-    of table entries pointing at each tile); todo: (M, 3) int64; free_slots: (F,) int64
-    unused pool indices, F >= M. A shared tile is copied, a missing one zeroed; a tile whose
-    other users already copied it away is kept. Returns the number of free slots used.
-    """
-    used = 0
-    for j in range(todo.shape[0]):
-        p, tr, tc = todo[j, 0], todo[j, 1], todo[j, 2]
-        old = tables[p, tr, tc]
-        if old >= 0 and refcount[old] == 1:
-            continue
-        new = free_slots[used]
-        used += 1
-        if old >= 0:
-            pool[new] = pool[old]
-            refcount[old] -= 1
-        else:
-            pool[new] = 0.0
-        refcount[new] = 1
-        tables[p, tr, tc] = new
-    return used
+def _own_tile(tables, pool, refcount, free_slots, used, p, tr, tc):
+    """Particle p's tile (tr, tc) made its own before it writes into it: a shared tile is
+    copied, a missing one zeroed, one no other particle uses kept. Returns (its pool index,
+    the free slots used so far)."""
+    old = tables[p, tr, tc]
+    if old >= 0 and refcount[old] == 1:
+        return old, used
+    new = free_slots[used]
+    if old >= 0:
+        pool[new] = pool[old]
+        refcount[old] -= 1
+    else:
+        pool[new] = 0.0
+    refcount[new] = 1
+    tables[p, tr, tc] = new
+    return new, used + 1
 
 
 @njit(cache=True, nogil=True)
-def insert_scans(tables, pool, grid_meta, poses, origin, ends, hit):
+def insert_scans(tables, pool, refcount, free_slots, grid_meta, poses, origin, ends, hit):
     """Count one scan into each particle's map, in place (Gmapping's registerScan).
 
     Every cell a beam crosses before its end gets a visit; the end cell of a beam with a
     return (hit[k]) gets a visit, a hit and the hit point. Cells outside the table are
-    skipped. The tiles written must be private (see mark_touched / privatize).
-    tables: (N, TR, TC) int32; pool: (cap, T, T, 4) float32; poses: (N, 3);
-    origin: (2,) lidar in the robot frame; ends: (K, 2) beam ends, robot frame; hit: (K,) bool.
+    skipped. A tile is made the particle's own (copy on write, _own_tile) the first time
+    it writes into it, taking slots from free_slots (unused pool indices, at least
+    tiles_bound of them). tables: (N, TR, TC) int32; pool: (cap, T, T, 4) float32;
+    refcount: (cap,) int32 table entries per tile; poses: (N, 3); origin: (2,) lidar in
+    the robot frame; ends: (K, 2) beam ends, robot frame; hit: (K,) bool. Returns the
+    number of free slots used.
     """
     ox, oy, res = grid_meta[0], grid_meta[1], grid_meta[2]
     rows, cols, shift = int(grid_meta[3]), int(grid_meta[4]), int(grid_meta[5])
@@ -247,6 +216,7 @@ def insert_scans(tables, pool, grid_meta, poses, origin, ends, hit):
     m = ray_buffer_len(poses, origin, ends, res)
     buf_c = np.empty(m, dtype=np.int64)
     buf_r = np.empty(m, dtype=np.int64)
+    used = 0
     for p in range(n):
         o, w = beam_world(poses[p], origin, ends)
         u0 = (o[0] - ox) / res
@@ -259,8 +229,9 @@ def insert_scans(tables, pool, grid_meta, poses, origin, ends, hit):
                 if r < 0 or r >= rows or c < 0 or c >= cols:
                     continue
                 t = tables[p, r >> shift, c >> shift]
-                if t < 0:
-                    continue
+                if t < 0 or refcount[t] != 1:
+                    t, used = _own_tile(tables, pool, refcount, free_slots, used, p, r >> shift,
+                                        c >> shift)
                 lr = r & in_tile
                 lc = c & in_tile
                 pool[t, lr, lc, 1] += 1.0
@@ -268,6 +239,7 @@ def insert_scans(tables, pool, grid_meta, poses, origin, ends, hit):
                     pool[t, lr, lc, 0] += 1.0
                     pool[t, lr, lc, 2] += w[k, 0] - (ox + c * res)
                     pool[t, lr, lc, 3] += w[k, 1] - (oy + r * res)
+    return used
 
 
 # --- references ---------------------------------------------------------------------------

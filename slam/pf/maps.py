@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from worlds.limits import check_grid_cells
-from slam.pf._map_kernel import N_FIELDS, insert_scans, mark_touched, privatize
+from slam.pf._map_kernel import N_FIELDS, insert_scans, tiles_bound
 
 __all__ = ["TiledMaps"]
 
@@ -79,11 +79,9 @@ class TiledMaps:
         ends = np.ascontiguousarray(ends, dtype=np.float64).reshape(-1, 2)
         origin = np.ascontiguousarray(origin, dtype=np.float64)
         hit = np.ascontiguousarray(hit, dtype=np.bool_)
-        todo = mark_touched(self.tables, self.refcount, self.grid_meta, poses, origin, ends)
-        if len(todo):
-            free = self._reserve(len(todo))
-            privatize(self.tables, self.pool, self.refcount, todo, free)
-        insert_scans(self.tables, self.pool, self.grid_meta, poses, origin, ends, hit)
+        free = self._reserve(tiles_bound(self.grid_meta, poses, origin, ends))
+        insert_scans(self.tables, self.pool, self.refcount, free, self.grid_meta, poses, origin,
+                     ends, hit)
 
     def dense(self, i: int) -> np.ndarray:
         """(rows, cols, 4) float64 counters of particle i (hits, visits, sum dx, sum dy)."""
