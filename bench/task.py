@@ -85,12 +85,11 @@ def _load_log(source):
 
 
 _WARM: set[str] = set()
-# scans of the warm-up run: enough to reach every numba kernel of the scan loop
-WARMUP_SCANS = 12
 
 
 def warm_up(algo: str, log, config=None) -> None:
-    """Run `algo` once per process on the first scans of `log`, untimed and discarded.
+    """Run `algo` once per process on the first scans of `log` (its class's warmup_scans),
+    untimed and discarded.
 
     Numba compiles (or loads from its cache) each kernel on first call; without this the
     first repeat in every worker would carry that cost in its wall time and real-time factor.
@@ -100,10 +99,11 @@ def warm_up(algo: str, log, config=None) -> None:
         return
     _WARM.add(algo)
     import dataclasses
+    from slam.registry import get as get_algorithm
     from slam.replay import run_algorithm
-    n = min(WARMUP_SCANS, log.n_scans)
-    head = dataclasses.replace(log, scan_t=log.scan_t[:n], scan_ranges=log.scan_ranges[:n])
     try:
+        n = min(int(get_algorithm(algo).warmup_scans), log.n_scans)
+        head = dataclasses.replace(log, scan_t=log.scan_t[:n], scan_ranges=log.scan_ranges[:n])
         run_algorithm(algo, head, config=config, seed=0)
     except Exception:
         pass

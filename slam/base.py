@@ -68,8 +68,9 @@ class Slam(ABC):
     """A 2D SLAM fed one scan at a time, from the log's initial pose (the algorithm contract).
 
     A subclass sets `name` and `config_class` (a frozen dataclass, loaded from YAML), and may
-    set `needs_odometry` (the log must have wheel odometry) and `uses_ground_truth` (update()
-    receives the true pose as `truth=`; only the oracle). It is built as
+    set `needs_odometry` (the log must have wheel odometry), `uses_ground_truth` (update()
+    receives the true pose as `truth=`; only the oracle) and `warmup_scans` (how many scans the
+    benchmark's untimed warm-up run needs to reach every compiled kernel once). It is built as
     `Cls(config, start, rng)`; `self.config` is what config.yaml records.
     """
 
@@ -77,6 +78,7 @@ class Slam(ABC):
     config_class: ClassVar[type]
     needs_odometry: ClassVar[bool] = False
     uses_ground_truth: ClassVar[bool] = False
+    warmup_scans: ClassVar[int] = 12
 
     def __init__(self, config, start: np.ndarray, rng: np.random.Generator):
         self.config = config

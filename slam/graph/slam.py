@@ -22,6 +22,9 @@ class GraphSlam(Slam):
     (deterministic: the rng is not used)."""
 
     config_class = GraphConfig
+    # the loop-closure search starts once the first submap is finished (about 250 scans on
+    # the shipped worlds' routes): the warm-up has to get there to compile its kernels
+    warmup_scans = 300
 
     def __init__(self, config: GraphConfig, start: np.ndarray, rng: np.random.Generator):
         super().__init__(config, start, rng)
