@@ -112,6 +112,28 @@ def segment_grid(segments: np.ndarray, cell: float) -> tuple[np.ndarray, np.ndar
     return np.array([x0, y0, cell, cols, rows]), cell_start, seg_ids[order]
 
 
+@njit(cache=True, inline="always")
+def _slab(t_in, t_out, o, d, lo, hi):
+    """The ray parameter interval [t_in, t_out] cut to lo <= o + t d <= hi on one axis
+    (t_out = -1 when the ray runs outside the slab)."""
+    if d != 0.0:
+        ta = (lo - o) / d
+        tb = (hi - o) / d
+        return max(t_in, min(ta, tb)), min(t_out, max(ta, tb))
+    if o < lo or o > hi:
+        return t_in, -1.0
+    return t_in, t_out
+
+
+@njit(cache=True, inline="always")
+def _cell_exit(o, d, lo, i, h):
+    """The ray parameter where it leaves cell i (of size h from lo) on one axis; inf when it
+    does not move along that axis."""
+    if d == 0.0:
+        return np.inf
+    return (lo + (i + (1 if d > 0.0 else 0)) * h - o) / d
+
+
 @njit(cache=True, nogil=True)
 def cast_rays_indexed(segments, grid_meta, cell_start, cell_segs, origins, angles, max_range):
     """cast_rays (same result, bit for bit) through the grid of segment_grid.
@@ -137,22 +159,8 @@ def cast_rays_indexed(segments, grid_meta, cell_start, cell_segs, origins, angle
         dy = np.sin(angles[b])
         best = np.inf
         # the part of the ray inside the grid's box: [t_in, t_out]
-        t_in = 0.0
-        t_out = max_range
-        if dx != 0.0:
-            ta = (x0 - ox) / dx
-            tb = (x1 - ox) / dx
-            t_in = max(t_in, min(ta, tb))
-            t_out = min(t_out, max(ta, tb))
-        elif ox < x0 or ox > x1:
-            t_out = -1.0
-        if dy != 0.0:
-            ta = (y0 - oy) / dy
-            tb = (y1 - oy) / dy
-            t_in = max(t_in, min(ta, tb))
-            t_out = min(t_out, max(ta, tb))
-        elif oy < y0 or oy > y1:
-            t_out = -1.0
+        t_in, t_out = _slab(0.0, max_range, ox, dx, x0, x1)
+        t_in, t_out = _slab(t_in, t_out, oy, dy, y0, y1)
         if t_in <= t_out:
             c = min(max(int(math.floor((ox + t_in * dx - x0) / h)), 0), cols - 1)
             r = min(max(int(math.floor((oy + t_in * dy - y0) / h)), 0), rows - 1)
@@ -168,12 +176,8 @@ def cast_rays_indexed(segments, grid_meta, cell_start, cell_segs, origins, angle
                         if t < best:
                             best = t
                 # where the ray leaves this cell
-                tc = np.inf
-                if dx != 0.0:
-                    tc = (x0 + (c + (1 if dx > 0.0 else 0)) * h - ox) / dx
-                tr = np.inf
-                if dy != 0.0:
-                    tr = (y0 + (r + (1 if dy > 0.0 else 0)) * h - oy) / dy
+                tc = _cell_exit(ox, dx, x0, c, h)
+                tr = _cell_exit(oy, dy, y0, r, h)
                 t_next = min(tc, tr)
                 if best <= t_next or t_next > t_out:
                     break
