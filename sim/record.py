@@ -163,6 +163,7 @@ def _seen_share(world: World, origins: np.ndarray, angles: np.ndarray, ranges: n
                 lc: LidarConfig) -> float:
     """Share of the true map's occupied cells holding the end of a beam within the lidar's
     range. origins (N, B, 2) m, angles (N, B) rad, ranges (N, B) m, noise-free."""
+    from worlds.coverage import occupied_share
     from worlds.raster import true_walls
     walls = true_walls(world)
     ranges = ranges.reshape(-1)
@@ -173,9 +174,9 @@ def _seen_share(world: World, origins: np.ndarray, angles: np.ndarray, ranges: n
     hit = np.zeros(walls.shape, dtype=bool)
     # a beam ends on the surface: a face on a cell edge belongs to the cell on either side
     # (worlds.raster takes the floor), so take the points a micrometre before and after it
-    mark_beam_ends_inplace(hit, frame, origins.reshape(-1, 2), ranges, beams, np.cos(a), np.sin(a), 1e-6)
-    occupied = walls.occupied()
-    return float((hit & occupied).sum() / max(1, occupied.sum()))
+    mark_beam_ends_inplace(hit, frame, origins.reshape(-1, 2), ranges, beams, np.cos(a), np.sin(a),
+                           1e-6)
+    return occupied_share(walls, hit)
 
 
 def recording_problem(meta: Mapping, min_coverage: float = MIN_COVERAGE) -> str | None:

@@ -13,7 +13,7 @@ from worlds.model import World
 from worlds.raster import rasterize
 from worlds.visibility import seen_mask
 
-__all__ = ["wall_coverage", "resample_path", "seen_wall_cells", "seen_share"]
+__all__ = ["wall_coverage", "resample_path", "seen_wall_cells", "seen_share", "occupied_share"]
 
 
 def resample_path(path_xy: np.ndarray, step: float = 0.1) -> np.ndarray:
@@ -54,9 +54,14 @@ def seen_share(truth: Grid, points: np.ndarray) -> float:
 
     points: (P, 2) m, e.g. the ends of the beams a lidar cast. Returns a float in [0, 1].
     """
-    walls = truth.occupied()
     rows, cols = truth.world_to_cell(np.asarray(points, dtype=np.float64).reshape(-1, 2))
     keep = truth.in_bounds(rows, cols)
     hit = np.zeros(truth.shape, dtype=bool)
     hit[rows[keep], cols[keep]] = True
-    return float((hit & walls).sum() / max(1, walls.sum()))
+    return occupied_share(truth, hit)
+
+
+def occupied_share(truth: Grid, marked: np.ndarray) -> float:
+    """Fraction of the occupied cells of `truth` that are True in `marked` (truth's shape)."""
+    walls = truth.occupied()
+    return float((marked & walls).sum() / max(1, walls.sum()))
