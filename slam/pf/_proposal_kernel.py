@@ -4,7 +4,7 @@ Gauss-Newton refinement from there when the match is good enough, then the propo
 moments around the result.
 
 propose_particles: compiled; propose_particles_ref: the same loop in Python over the
-single-particle kernels, for tests.
+single-particle kernels, for tests (box_patch: a patch in arrays of its own).
 """
 from __future__ import annotations
 
@@ -15,7 +15,15 @@ from slam.pf._map_kernel import patch_box, read_patch
 from slam.pf._match_kernel import hill_climb, proposal_moments
 from slam.pf._refine_kernel import mean_hit_iterate
 
-__all__ = ["propose_particles", "propose_particles_ref"]
+__all__ = ["propose_particles", "propose_particles_ref", "box_patch"]
+
+
+@njit(cache=True, nogil=True)
+def _patch_meta(grid_meta, box):
+    """[ox, oy, resolution, rows, columns] of the patch over box in the grid of grid_meta."""
+    res = grid_meta[2]
+    return np.array([grid_meta[0] + box[1] * res, grid_meta[1] + box[0] * res, res, box[2],
+                     box[3]], dtype=np.float64)
 
 
 @njit(cache=True, nogil=True)
@@ -25,9 +33,8 @@ def _patch(tables, pool, grid_meta, p, pose, half, box, prob, hits, mean_off):
     patch_box(tables[p], grid_meta, pose, half, box)
     read_patch(tables[p], pool, grid_meta, box, prob, hits, mean_off)
     nr, nc = box[2], box[3]
-    res = grid_meta[2]
-    meta = np.array([grid_meta[0] + box[1] * res, grid_meta[1] + box[0] * res, res, nr, nc])
-    return prob[:nr, :nc], hits[:nr, :nc], mean_off[:nr, :nc], box[:2].copy(), meta
+    return (prob[:nr, :nc], hits[:nr, :nc], mean_off[:nr, :nc], box[:2].copy(),
+            _patch_meta(grid_meta, box))
 
 
 @njit(cache=True, nogil=True)
@@ -62,6 +69,16 @@ def propose_particles(tables, pool, grid_meta, poses, prior_mean, prior_std, hit
     return means, covs, log_eta
 
 
+def box_patch(table, pool, grid_meta, box):
+    """One particle's patch over box (first row, column, rows, columns) in arrays of its own:
+    read_patch's (prob, hits, mean_off) and the patch's [ox, oy, resolution, rows, columns]."""
+    nr, nc = int(box[2]), int(box[3])
+    prob, hits = np.empty((nr, nc), np.float32), np.empty((nr, nc), np.float32)
+    mean_off = np.empty((nr, nc, 2), np.float32)
+    read_patch(table, pool, grid_meta, box, prob, hits, mean_off)
+    return prob, hits, mean_off, _patch_meta(grid_meta, box)
+
+
 def propose_particles_ref(tables, pool, grid_meta, poses, prior_mean, prior_std, hits, frees,
                           params, half, gn_iterations, gn_max_angle_step, gn_prior_w,
                           minimum_score):
@@ -71,12 +88,7 @@ def propose_particles_ref(tables, pool, grid_meta, poses, prior_mean, prior_std,
     for p in range(len(poses)):
         box = np.empty(4, dtype=np.int64)
         patch_box(tables[p], grid_meta, poses[p], half, box)
-        nr, nc = int(box[2]), int(box[3])
-        prob, hits_n = np.empty((nr, nc), np.float32), np.empty((nr, nc), np.float32)
-        mean_off = np.empty((nr, nc, 2), np.float32)
-        read_patch(tables[p], pool, grid_meta, box, prob, hits_n, mean_off)
-        res = grid_meta[2]
-        meta = np.array([grid_meta[0] + box[1] * res, grid_meta[1] + box[0] * res, res, nr, nc])
+        prob, hits_n, mean_off, meta = box_patch(tables[p], pool, grid_meta, box)
         start, score = hill_climb(prob, mean_off, box[:2], grid_meta, poses[p], hits, frees,
                                   params)
         if score <= minimum_score:

@@ -7,8 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from slam.pf._map_kernel import read_patch
-from slam.pf._proposal_kernel import propose_particles
+from slam.pf._proposal_kernel import box_patch, propose_particles
 from slam.pf._refine_kernel import mean_hit_iterate
 from slam.pf.config import PfConfig
 from slam.pf.maps import TiledMaps
@@ -28,14 +27,8 @@ def refine_pose(maps: TiledMaps, p: int, box: np.ndarray, points: np.ndarray, po
     points, robot frame, m; pose: (3,) start; prior (3,), prior_w (3,): the quadratic pull
     towards the motion prior (weights per m^2, m^2, rad^2). Returns the refined (3,) pose.
     """
-    box = np.asarray(box, dtype=np.int64)
-    nr, nc = int(box[2]), int(box[3])
-    prob, hits = np.empty((nr, nc), np.float32), np.empty((nr, nc), np.float32)
-    mean_off = np.empty((nr, nc, 2), np.float32)
-    read_patch(maps.tables[p], maps.pool, maps.grid_meta, box, prob, hits, mean_off)
-    res = maps.grid_meta[2]
-    meta = np.array([maps.grid_meta[0] + box[1] * res, maps.grid_meta[1] + box[0] * res, res,
-                     nr, nc])
+    prob, hits, mean_off, meta = box_patch(maps.tables[p], maps.pool, maps.grid_meta,
+                                           np.asarray(box, dtype=np.int64))
     return mean_hit_iterate(prob, hits, mean_off, meta,
                             np.ascontiguousarray(points, dtype=np.float64),
                             np.asarray(pose, dtype=np.float64), int(iterations),
