@@ -28,13 +28,12 @@ def _beam_point(angle, rng, side, offset, j, twist, time_increment, deskew, out,
         tau = j * time_increment
         vx, vy, w = twist[0], twist[1], twist[2]
         th = w * tau
+        c, s = math.cos(th), math.sin(th)
         if abs(w) > 1e-9:
-            sin_t, one_cos = math.sin(th), 1.0 - math.cos(th)
-            dx = (vx * sin_t - vy * one_cos) / w
-            dy = (vx * one_cos + vy * sin_t) / w
+            dx = (vx * s - vy * (1.0 - c)) / w
+            dy = (vx * (1.0 - c) + vy * s) / w
         else:
             dx, dy = vx * tau, vy * tau
-        c, s = math.cos(th), math.sin(th)
         x, y = dx + c * x - s * y, dy + s * x + c * y
     out[k, 0] = x
     out[k, 1] = y
