@@ -88,8 +88,10 @@ def match_lm(prob, meta, pts, wts, pose0, prior, w_occ, w_t, w_r, iterations):
             pose = trial
             done = cost - tcost < 1e-10 * cost
             cost = tcost
-            H[:, :] = Ht
-            g[:] = gt
+            for a in range(3):  # element writes, not H[:, :] = Ht: see pf's _copy3
+                g[a] = gt[a]
+                for b in range(3):
+                    H[a, b] = Ht[a, b]
             lam = max(lam * 0.3, 1e-7)
             if done:
                 break

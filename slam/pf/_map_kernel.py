@@ -187,7 +187,13 @@ def _own_tile(tables, pool, refcount, free_slots, used, p, tr, tc):
         return old, used
     new = free_slots[used]
     if old >= 0:
-        pool[new] = pool[old]
+        # element loop, not pool[new] = pool[old]: numba compiles the slice copy's
+        # shape-mismatch message (string formatting, ~2 s of a cold start) for no use here
+        src, dst = pool[old], pool[new]
+        for i in range(dst.shape[0]):
+            for j in range(dst.shape[1]):
+                for q in range(dst.shape[2]):
+                    dst[i, j, q] = src[i, j, q]
         refcount[old] -= 1
     else:
         pool[new] = 0.0

@@ -193,6 +193,15 @@ def score_above(prob, mean_off, corner, grid_meta, pose, hits, frees, params, bo
     return score
 
 
+@njit(cache=True, inline="always")
+def _copy3(dst, src):
+    """dst[:3] = src[:3] as element writes (a slice copy makes numba compile its
+    shape-mismatch error message, seconds of a cold start)."""
+    dst[0] = src[0]
+    dst[1] = src[1]
+    dst[2] = src[2]
+
+
 @njit(cache=True, nogil=True)
 def hill_climb(prob, mean_off, corner, grid_meta, init, hits, frees, params):
     """Gmapping's optimize(): scan-match one particle against its map patch from pose init
@@ -221,7 +230,7 @@ def hill_climb(prob, mean_off, corner, grid_meta, init, hits, frees, params):
             # whose score is lower than the current one: it can never be accepted
             if came_by >= 0 and move == (came_by ^ 1):
                 continue
-            trial[:] = cur
+            _copy3(trial, cur)
             if move == 0:
                 trial[0] += ldelta
             elif move == 1:
@@ -238,9 +247,9 @@ def hill_climb(prob, mean_off, corner, grid_meta, init, hits, frees, params):
                              keys, count, cand_x, cand_y)
             if sc > cur_score:
                 cur_score = sc
-                best_local[:] = trial
+                _copy3(best_local, trial)
                 accepted = move
-        cur[:] = best_local
+        _copy3(cur, best_local)
         came_by = accepted
         if not (cur_score > best_score or refinement < iterations):
             break

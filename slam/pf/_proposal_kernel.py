@@ -63,9 +63,12 @@ def propose_particles(tables, pool, grid_meta, poses, prior_mean, prior_std, hit
         elif gn_iterations > 0:
             start = mean_hit_iterate(pr, hc, mo, meta, hits, start, gn_iterations,
                                      gn_max_angle_step, prior_mean[p], prior_info)
-        means[p], covs[p], log_eta[p] = proposal_moments(pr, mo, corner, grid_meta, start,
-                                                         prior_mean[p], prior_std, hits, frees,
-                                                         params)
+        mu, cov, log_eta[p] = proposal_moments(pr, mo, corner, grid_meta, start, prior_mean[p],
+                                               prior_std, hits, frees, params)
+        for a in range(3):  # element writes: see _match_kernel._copy3
+            means[p, a] = mu[a]
+            for b in range(3):
+                covs[p, a, b] = cov[a, b]
     return means, covs, log_eta
 
 
