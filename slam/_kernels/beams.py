@@ -40,6 +40,32 @@ def _beam_point(angle, rng, side, offset, j, twist, time_increment, deskew, out,
 
 
 @njit(cache=True, nogil=True)
+def _select(d, k):
+    """d[k] after d is partially ordered in place so that d[:k] <= d[k] <= d[k + 1:] (Hoare's
+    selection; a full sort would compile numba's quicksort, seconds of every cold start)."""
+    lo, hi = 0, d.shape[0] - 1
+    while lo < hi:
+        pivot = d[(lo + hi) // 2]
+        i, j = lo, hi
+        while i <= j:
+            while d[i] < pivot:
+                i += 1
+            while d[j] > pivot:
+                j -= 1
+            if i <= j:
+                d[i], d[j] = d[j], d[i]
+                i += 1
+                j -= 1
+        if k <= j:
+            hi = j
+        elif k >= i:
+            lo = i
+        else:
+            break
+    return d[k]
+
+
+@njit(cache=True, nogil=True)
 def _median_step(angles):
     """The median of the steps between consecutive angles (numpy's median: the mean of the
     two middle values of an even count); 0 for fewer than two angles."""
@@ -49,10 +75,13 @@ def _median_step(angles):
     d = np.empty(n)
     for j in range(n):
         d[j] = angles[j + 1] - angles[j]
-    d.sort()
+    upper = _select(d, n // 2)
     if n % 2:
-        return d[n // 2]
-    return (d[n // 2 - 1] + d[n // 2]) / 2
+        return upper
+    lower = d[0]
+    for j in range(1, n // 2):  # after the selection, the largest of the lower half
+        lower = max(lower, d[j])
+    return (lower + upper) / 2
 
 
 @njit(cache=True, nogil=True)

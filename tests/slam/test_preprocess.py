@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 
 from slam.base import Scan
-from slam._kernels.beams import motion_during, scan_points, scan_points_ref
+from slam._kernels.beams import _median_step, motion_during, scan_points, scan_points_ref
 from slam._kernels.smooth import smooth_ranges
 from slam.preprocess import PreprocessConfig, preprocess, twist_from_poses
 from slam.pose import compose, transform_points
@@ -106,3 +106,14 @@ def test_scan_points_matches_its_reference(seed):
         for got, want in zip(scan_points(*args), scan_points_ref(*args)):
             assert got.shape == want.shape
             np.testing.assert_allclose(got, want, rtol=0, atol=1e-12)
+
+
+@pytest.mark.parametrize("kind", ["jitter", "ties", "equal", "shuffled"])
+def test_median_step_is_numpys_median_of_the_steps(kind):
+    rng = np.random.default_rng(7)
+    for n in range(0, 41):
+        steps = {"jitter": rng.normal(0.0175, 1e-4, n), "ties": rng.integers(0, 3, n) * 0.5,
+                 "equal": np.full(n, 0.0175), "shuffled": rng.normal(0.0, 1.0, n)}[kind]
+        angles = np.cumsum(steps) if kind != "shuffled" else steps
+        want = float(np.median(np.diff(angles))) if n > 1 else 0.0
+        assert _median_step(angles) == want
