@@ -18,6 +18,7 @@ import numpy as np
 
 from worlds.grid import Grid
 from slam.pose import relative
+from slam.range_noise import DEFAULT_RANGE_NOISE, RangeNoise
 
 __all__ = ["Scan", "OdomDelta", "ImuWindow", "Slam", "SlamResult", "check_algorithm_class"]
 
@@ -27,7 +28,8 @@ class Scan:
     """One lidar revolution as recorded (nothing dropped yet).
 
     t: s (first beam); ranges: (B,) m, inf = no return; angles: (B,) rad in the lidar frame;
-    offset: (3,) lidar pose in the robot frame; time_increment: s between beams.
+    offset: (3,) lidar pose in the robot frame; time_increment: s between beams;
+    range_noise: the sensor's range error model (the output map weighs hits by it).
     """
 
     t: float
@@ -38,6 +40,7 @@ class Scan:
     offset: np.ndarray
     time_increment: float = 0.0
     index: int = 0
+    range_noise: RangeNoise = DEFAULT_RANGE_NOISE
 
 
 @dataclass(frozen=True, eq=False)

@@ -1,12 +1,24 @@
 """The output map: the map every algorithm writes, built the same way by all of them.
 
-Each scan is inserted at the pose the algorithm estimated for it (the oracle: the true pose),
-de-skewed with the motion during its revolution, into one log-odds grid. So the maps of two
-algorithms differ only where their poses differ, and the oracle's map is the ceiling of
-exactly this map building. The defaults suit a lidar whose range error grows with range (the
-LDS-01: 2.5 % of the range, 1 sigma, beyond 0.5 m): hits count only up to 2 m (farther beams
-mark free space up to 2 m), each hit is the mean of its 9 neighbouring beams, and one hit is
-weak evidence (p_occupied 0.6), so that range noise does not thicken the walls.
+Each scan is taken at the pose the algorithm estimated for it (the oracle: the true pose),
+de-skewed with the motion during its revolution. When the map is asked for, every hit of
+every scan, up to the sensor's range, goes into one surface estimate
+(slam/_kernels/surface_map.py):
+1. each hit is weighted by 1 / sigma^2, sigma from the sensor's range noise model
+   (Scan.range_noise) at the mean range of its neighbouring beams;
+2. each hit is moved onto the local surface by mean shift along the local normal: a wide
+   pass (a window of 2 * wide_radius + 1 cells), then a fine one (2 * fine_radius + 1) over
+   the moved hits, each reading only the hits seen from the same side of the surface;
+3. a cell is occupied when it holds at least `min_hits` moved hits whose weight is at least
+   `peak_share` of the best cell around it, so a wall is drawn in the cell that holds its
+   surface, one cell thick;
+4. the rays free the cells they cross up to `free_margin_sigmas` sigma short of their hit
+   (no-return beams up to preprocess.free_range); a cell's probability falls with the number
+   of scans that freed it (p_free per scan, log-odds clamped at l_min).
+Near hits, with the smallest sigma, decide where a wall is; walls seen only from afar are still
+mapped. Nothing but the scans, their poses and the sensor's noise model goes in, so the maps
+of two algorithms differ only where their poses differ, and the oracle's map is the ceiling
+of exactly this map building.
 """
 from __future__ import annotations
 
@@ -15,59 +27,171 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from worlds.grid import Grid
+from worlds.limits import check_grid_cells
+from slam._kernels import surface_map as K
 from slam.base import Scan
-from slam.occupancy import GridConfig, LogOddsGrid, insert_scan_points
-from slam.preprocess import PreprocessConfig, ScanPoints, preprocess, twist_from_poses
+from slam.occupancy import GridConfig, logodds
+from slam.pose import transform_points
+from slam.preprocess import PreprocessConfig, preprocess, twist_from_poses
+from slam.range_noise import RangeNoise
 
-__all__ = ["OutputMapConfig", "OutputGridConfig", "OutputPreprocessConfig", "OutputMap",
-           "output_map_from_trajectory"]
+__all__ = ["OutputMapConfig", "OutputGridConfig", "OutputPreprocessConfig", "SurfaceConfig",
+           "OutputMap", "output_map_from_trajectory", "build_output_map"]
 
 
 @dataclass(frozen=True)
 class OutputGridConfig(GridConfig):
-    """GridConfig with the output map's defaults (a YAML block keeps those it does not name)."""
+    """GridConfig with the output map's defaults (a YAML block keeps those it does not name).
+    p_free: the update of a cell per scan whose rays freed it; p_occupied: the probability of
+    a surface cell."""
 
-    p_free: float = 0.45       # occupancy probability a ray's free cells are updated with
-    p_occupied: float = 0.6    # weak single hits: range noise must not make walls thick
+    p_free: float = 0.4        # update of a cell per scan whose rays freed it
+    p_occupied: float = 0.9    # probability a surface cell is drawn with
 
 
 @dataclass(frozen=True)
 class OutputPreprocessConfig(PreprocessConfig):
-    """PreprocessConfig with the output map's defaults."""
+    """PreprocessConfig with the output map's defaults: every hit up to the sensor's range,
+    no smoothing (the surface estimate averages along the wall itself)."""
 
-    range_max: float = 2.0     # m; hits only below 2 m, where the range noise is below 5 cm
-    free_range: float = 2.0    # m; farther beams still mark free space up to 2 m
-    smooth_beams: int = 4      # mean over 9 neighbouring beams: range noise / 3 on flat walls
+    free_range: float = 2.0    # m; no-return beams mark free space up to 2 m
+
+
+@dataclass(frozen=True)
+class SurfaceConfig:
+    """How hits become surface cells (slam/_kernels/surface_map.py)."""
+
+    neighbours: int = 2             # beams on each side whose mean range the noise model is read at
+    neighbour_jump: float = 0.1     # ... those within this fraction of the beam's range
+    normal_beams: int = 3           # beams on each side a hit's normal is fitted to ...
+    normal_gate: float = 0.25       # ... those within this distance of it (m)
+    wide_radius: int = 2            # cells: the first mean-shift pass's window is 2 r + 1 wide
+    fine_radius: int = 1            # cells: the second pass's window
+    wide_spread: int = 1            # normal sectors (of 16) on each side a hit reads in the first pass
+    fine_spread: int = 0            # ... in the second
+    iterations: int = 4             # projections per hit and pass at most
+    min_hits: int = 3               # moved hits a surface cell holds at least
+    peak_share: float = 0.25        # ... with a weight at least this share of its 3 x 3 best
+    free_margin_sigmas: float = 2.0  # rays free cells up to this many sigma short of the hit
+
+    def __post_init__(self):
+        for name in ("neighbours", "wide_radius", "fine_radius", "iterations", "min_hits"):
+            if getattr(self, name) < 0:
+                raise ValueError(f"{name} must be >= 0, got {getattr(self, name)}")
+        if not 0.0 <= self.peak_share <= 1.0:
+            raise ValueError(f"peak_share must be in [0, 1], got {self.peak_share}")
+        if self.neighbour_jump < 0 or self.free_margin_sigmas < 0:
+            raise ValueError("neighbour_jump and free_margin_sigmas must be >= 0")
 
 
 @dataclass(frozen=True)
 class OutputMapConfig:
-    """How the output map is built: grid update values and the scan preprocessing for it."""
+    """How the output map is built: grid values, scan preprocessing, the surface estimate and
+    the range noise model (None: each scan's own, i.e. the log's)."""
 
     grid: OutputGridConfig = field(default_factory=OutputGridConfig)
     preprocess: OutputPreprocessConfig = field(default_factory=OutputPreprocessConfig)
+    surface: SurfaceConfig = field(default_factory=SurfaceConfig)
+    range_noise: RangeNoise | None = None   # the lidar's range error model; None: the log's
 
 
 class OutputMap:
-    """Inserts scans at given poses into a growing LogOddsGrid."""
+    """Collects scans at given poses; `to_grid()` builds the map from all of them."""
 
     def __init__(self, cfg: OutputMapConfig, center=(0.0, 0.0)):
         self.cfg = cfg
-        self.grid = LogOddsGrid.from_config(cfg.grid, center=tuple(center[:2]))
+        self.center = tuple(float(v) for v in center[:2])
+        self._origins: list[np.ndarray] = []    # (2,) world lidar position per scan
+        self._hits: list[np.ndarray] = []       # (N, 2) world hit points per scan
+        self._ranges: list[np.ndarray] = []     # (N,) m
+        self._misses: list[np.ndarray] = []     # (M, 2) world free-range points per scan
+        self._noise: RangeNoise | None = cfg.range_noise
         self.scans = 0
 
     def insert(self, scan: Scan, pose: np.ndarray, twist: np.ndarray | None = None) -> None:
-        """Insert `scan` taken at robot pose (3,) with the robot moving at twist (3,) (or None)."""
-        self.insert_points(preprocess(scan, self.cfg.preprocess, twist), pose)
-
-    def insert_points(self, pts: ScanPoints, pose: np.ndarray) -> None:
-        """Insert an already preprocessed scan at robot pose (3,)."""
-        insert_scan_points(self.grid, pts, pose)
+        """Add `scan` taken at robot pose (3,) with the robot moving at twist (3,) (or None)."""
+        if self._noise is None:
+            self._noise = scan.range_noise
+        pts = preprocess(scan, self.cfg.preprocess, twist)
+        pose = np.asarray(pose, dtype=np.float64)
+        self._origins.append(transform_points(pose, pts.origin[None, :])[0])
+        self._ranges.append(np.hypot(pts.points[:, 0] - pts.origin[0],
+                                     pts.points[:, 1] - pts.origin[1]))
+        self._hits.append(transform_points(pose, pts.points))
+        self._misses.append(transform_points(pose, pts.misses))
         self.scans += 1
 
     def to_grid(self) -> Grid:
-        """The map as a Grid (probabilities, NaN unknown), cropped to the observed cells."""
-        return self.grid.to_grid()
+        """The map as a Grid (probabilities, NaN unknown) covering the observed cells."""
+        noise = self._noise if self._noise is not None else RangeNoise()
+        return build_output_map(self.cfg, noise, self._origins, self._hits, self._ranges,
+                                self._misses, self.center)
+
+
+def _lattice(res: float, points: list[np.ndarray], center) -> tuple[float, float, int, int]:
+    """(ox, oy, rows, cols) of a grid on the global lattice (multiples of res) holding every
+    point with a margin of 4 cells."""
+    allp = [p.reshape(-1, 2) for p in points if len(p)]
+    if not allp:
+        allp = [np.asarray(center, dtype=np.float64).reshape(1, 2)]
+    stacked = np.vstack(allp)
+    lo = np.floor(stacked.min(axis=0) / res) - 4
+    hi = np.floor(stacked.max(axis=0) / res) + 5
+    rows, cols = int(hi[1] - lo[1]), int(hi[0] - lo[0])
+    check_grid_cells(rows, cols, "output map", "the scans' points (a pose far off)")
+    return float(lo[0] * res), float(lo[1] * res), rows, cols
+
+
+def build_output_map(cfg: OutputMapConfig, noise: RangeNoise, origins, hits, ranges, misses,
+                     center=(0.0, 0.0)) -> Grid:
+    """The output map of scans given per scan as world lidar origin (2,), hit points (N, 2) m,
+    their ranges (N,) m and free-range points of no-return beams (M, 2) m (lists of equal
+    length), read with the range noise model `noise`."""
+    res, sc = cfg.grid.resolution, cfg.surface
+    ox, oy, rows, cols = _lattice(res, list(origins) + list(hits) + list(misses), center)
+    n_scans = len(origins)
+    counts = np.array([len(h) for h in hits], dtype=np.int64)
+    starts = np.zeros(n_scans + 1, dtype=np.int64)
+    np.cumsum(counts, out=starts[1:])
+    cat = (lambda a, k: np.ascontiguousarray(np.concatenate(a) if len(a) else np.zeros((0,) + k)))
+    p = cat([h.reshape(-1, 2) for h in hits], (2,))
+    r = cat([np.asarray(v, dtype=np.float64) for v in ranges], ())
+    o = (np.asarray(origins, dtype=np.float64).reshape(-1, 2) - [ox, oy]) / res
+    px, py = (p[:, 0] - ox) / res, (p[:, 1] - oy) / res
+    per_hit = np.repeat(np.arange(n_scans), counts)
+    hox, hoy = np.ascontiguousarray(o[per_hit, 0]), np.ascontiguousarray(o[per_hit, 1])
+
+    sigma = K.hit_sigmas(r, starts, int(sc.neighbours), float(sc.neighbour_jump), noise.as_array())
+    w = 1.0 / (sigma * sigma)
+    sector = K.hit_normals(px, py, w, starts, int(sc.normal_beams), sc.normal_gate / res, hox, hoy)
+    wide = K.project_hits(px, py, px, py, w, sector, int(sc.wide_spread), rows, cols, int(sc.wide_radius),
+                          int(sc.iterations))
+    wx, wy = np.ascontiguousarray(wide[:, 0]), np.ascontiguousarray(wide[:, 1])
+    fine = K.project_hits(wx, wy, wx, wy, w, sector, int(sc.fine_spread), rows, cols, int(sc.fine_radius),
+                          int(sc.iterations))
+    surface, _ = K.mark_surface(np.ascontiguousarray(fine[:, 0]), np.ascontiguousarray(fine[:, 1]),
+                                w, rows, cols, int(sc.min_hits), float(sc.peak_share))
+
+    # free space: hit rays stop free_margin_sigmas short; miss rays run to their end
+    m = [np.asarray(v, dtype=np.float64).reshape(-1, 2) for v in misses]
+    m_counts = np.array([len(v) for v in m], dtype=np.int64)
+    ray_starts = np.zeros(n_scans + 1, dtype=np.int64)
+    np.cumsum(counts + m_counts, out=ray_starts[1:])
+    ends = np.zeros((int(ray_starts[-1]), 2))
+    margin = np.zeros(int(ray_starts[-1]))
+    for s in range(n_scans):
+        a = ray_starts[s]
+        ends[a:a + counts[s]] = p[starts[s]:starts[s + 1]]
+        margin[a:a + counts[s]] = sc.free_margin_sigmas * sigma[starts[s]:starts[s + 1]] / res
+        ends[a + counts[s]:ray_starts[s + 1]] = m[s]
+    free, seen = K.carve_free(np.ascontiguousarray(o), ray_starts,
+                              np.ascontiguousarray((ends[:, 0] - ox) / res),
+                              np.ascontiguousarray((ends[:, 1] - oy) / res), margin, rows, cols)
+    prob = np.full((rows, cols), np.nan)
+    l_free = np.maximum(free * logodds(cfg.grid.p_free), cfg.grid.l_min)
+    prob[seen] = 1.0 / (1.0 + np.exp(-l_free[seen]))
+    prob[surface] = cfg.grid.p_occupied
+    return Grid(prob, res, np.array([ox, oy, 0.0]))
 
 
 def output_map_from_trajectory(cfg: OutputMapConfig, scans: list[Scan], times: np.ndarray,

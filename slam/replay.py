@@ -16,8 +16,20 @@ from sim.log import SensorLog
 from slam.registry import get as get_algorithm, load_config
 from slam.base import ImuWindow, OdomDelta, Scan, Slam, SlamResult
 from slam.pose import interpolate_poses
+from slam.range_noise import range_noise_from_meta
 
-__all__ = ["run", "run_algorithm"]
+__all__ = ["run", "run_algorithm", "scans_of"]
+
+
+def scans_of(log: SensorLog) -> list[Scan]:
+    """The log's scans as the SLAMs get them (N Scan objects, in time order): ranges, angles,
+    range limits, lidar offset, time between beams and index from the log and its meta."""
+    lidar = log.meta.get("lidar", {})
+    offset = log.lidar_offset
+    time_inc = float(lidar.get("time_increment", 0.0))
+    noise = range_noise_from_meta(log.meta)
+    return [Scan(float(t), log.scan_ranges[i], log.scan_angles, log.range_min, log.range_max,
+                 offset, time_inc, i, noise) for i, t in enumerate(log.scan_t)]
 
 
 def _iter_inputs(log: SensorLog):
@@ -25,13 +37,9 @@ def _iter_inputs(log: SensorLog):
     odom_at = (interpolate_poses(log.scan_t, log.odom_t, log.odom_pose)
                if log.has_odometry else None)
     gt_at = interpolate_poses(log.scan_t, log.gt_t, log.gt_pose) if log.has_ground_truth else None
-    lidar = log.meta.get("lidar", {})
-    offset = log.lidar_offset
-    time_inc = float(lidar.get("time_increment", 0.0))
     imu_idx = np.searchsorted(log.imu_t, log.scan_t, side="right") if log.has_imu else None
-    for i, t in enumerate(log.scan_t):
-        scan = Scan(float(t), log.scan_ranges[i], log.scan_angles, log.range_min, log.range_max,
-                    offset, time_inc, i)
+    for i, scan in enumerate(scans_of(log)):
+        t = scan.t
         odom = None
         if odom_at is not None:
             odom = OdomDelta(odom_at[i], odom_at[i - 1] if i > 0 else odom_at[i])
