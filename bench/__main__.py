@@ -183,8 +183,14 @@ def cmd_add(args) -> int:
     def num(key):
         return "–" if row.get(key) is None else f"{row[key]:.3f}"
     traj = f", ATE {num('ate_m')} m" if args.trajectory else ""
-    print(f"{row['world']}/{row['algo']}/{row['repeat']}: precision {num('precision')}, "
-          f"sensitivity {num('sensitivity')}{traj}")
+    cell = "study's cell rule"
+    if row.get("surface_precision") is not None:
+        main = (f"precision {num('surface_precision')}, sensitivity "
+                f"{num('surface_sensitivity')} (surface, tau = {row['surface_tau_m']:g} m); "
+                f"{cell}: {num('precision')} / {num('sensitivity')}")
+    else:
+        main = f"precision {num('precision')}, sensitivity {num('sensitivity')} ({cell})"
+    print(f"{row['world']}/{row['algo']}/{row['repeat']}: {main}{traj}")
     print(f"report: {Path(args.dir) / 'summary.md'}")
     return 0
 

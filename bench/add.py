@@ -2,8 +2,9 @@
 
 A ROS SLAM run on a bag exported from one of the run's logs (`python -m sim export`) saves a
 map_server pair and, say, a TUM trajectory. The map is scored exactly as the runner scores its
-own (bench.task._score against the run's stored true map, ICP from identity: the exported
-odometry starts at the true start pose, so the map is in the world frame), the trajectory
+own (bench.task._score against the run's stored true map and the world's surfaces, ICP from
+identity: the exported odometry starts at the true start pose, so the map is in the world
+frame), the trajectory
 against the stored true path of the draw's log. The row, marked `source: "outside"`, joins
 results.json under the run folder's lock, so the report shows the outside algorithm beside
 the run's own.
@@ -22,7 +23,7 @@ import numpy as np
 from worlds.yamlio import InputError, atomic_write_text
 from bench.plan import RunSpec, Task, load_plugins, make_tasks
 from bench.results import RESULTS_NAME, RUN_NAME, ResultStore, jsonable, read_rows
-from bench.runner import map_path, read_run, run_lock, truth_path, write_npz
+from bench.runner import map_path, read_run, read_truth, run_lock, write_npz
 from bench.task import _score, new_row, score_trajectory
 
 __all__ = ["add_outside", "SOURCE"]
@@ -110,10 +111,7 @@ def add_outside(run_dir: str | Path, world: str, algo: str, map_yaml: str | Path
     log_seed = _draw_log_seed(spec, worlds, world, draw, rows)
 
     t0 = time.perf_counter()
-    from worlds.grid import Grid
-    truth = _load_npz(truth_path(run_dir, world), f"true map of {world}",
-                      "prob", "resolution", "origin")
-    truth = Grid(truth["prob"], float(truth["resolution"]), truth["origin"])
+    truth, surfaces = read_truth(run_dir, world)   # surfaces None: a run from before them
     grid = read_map(map_yaml)
     times, poses, gt = np.zeros(0), np.zeros((0, 3)), None
     if trajectory is not None:
@@ -124,7 +122,7 @@ def add_outside(run_dir: str | Path, world: str, algo: str, map_yaml: str | Path
     row.update(_blank_keys(), slam_seed=None, slam_stats={}, source=SOURCE,
                map_source=str(Path(map_yaml).resolve()),
                trajectory_source=str(Path(trajectory).resolve()) if gt is not None else None)
-    row.update(_score(grid, truth))
+    row.update(_score(grid, truth, surfaces))
     if gt is not None:
         row.update(score_trajectory(times, poses, gt["times"], gt["poses"]))
     row["score_time_s"] = row["task_time_s"] = time.perf_counter() - t0

@@ -1,10 +1,11 @@
 """The report's pictures, drawn from results.json and the arrays under DIR/maps.
 
-- overlay_<world>_<algo>.png: TP/FP/FN of the median repeat (by F1 at tolerance 0), drawn
-  by metrics.save_overlay_png with the alignment the scorer found (the study's Fig. 2);
+- overlay_<world>_<algo>.png: TP/FP/FN of the median repeat (by the main F1: the surface
+  form's, or the study's cell rule's where a world has no surfaces; bench.tables.main_key),
+  drawn by metrics.save_overlay_png with the alignment the scorer found (the study's Fig. 2);
 - trajectories_<world>.png: the true path and each algorithm's median run over the true map;
-- precision_sensitivity.png: precision and sensitivity per world and algorithm, bars = mean,
-  error bars = std over the repeats.
+- precision_sensitivity.png: the main precision and sensitivity per world and algorithm,
+  bars = mean, error bars = std over the repeats.
 """
 from __future__ import annotations
 
@@ -15,7 +16,7 @@ import numpy as np
 
 from worlds.grid import Grid
 from metrics.plot import save_figure
-from bench.tables import aggregate, algo_order, world_order
+from bench.tables import aggregate, algo_order, main_key, surface_label, surface_worlds, world_order
 
 __all__ = ["median_row", "load_grid", "write_figures"]
 
@@ -35,12 +36,12 @@ def load_grid(path: Path) -> Grid:
         return Grid(z["prob"], float(z["resolution"]), z["origin"])
 
 
-def _overlay(out_dir: Path, fig_dir: Path, row: dict, truth: Grid) -> Path:
+def _overlay(out_dir: Path, fig_dir: Path, row: dict, truth: Grid, by: str) -> Path:
     import metrics
     est = load_grid(out_dir / row["map_file"])
     align = {k: float(row.get(f"align_{k}") or 0.0) for k in ("x", "y", "yaw")}
     path = fig_dir / f"overlay_{row['world']}_{row['algo']}.png"
-    title = f"{row['world']} / {row['algo']}, median repeat ({row['repeat']}) by F1"  # P/S/F1 drawn by metrics
+    title = f"{row['world']} / {row['algo']}, median repeat ({row['repeat']}) by {by}"  # P/S/F1 drawn by metrics
     metrics.save_overlay_png(est, truth, align, str(path), title=title)
     return path
 
@@ -89,9 +90,11 @@ def _bars(fig_dir: Path, rows: list[dict], run: dict | None) -> Path:
     fig, axes = plt.subplots(2, 1, figsize=(width_in, 6), sharex=True)
     width = 0.8 / max(1, len(algos))
     x = np.arange(len(worlds))
+    surface = surface_worlds(rows)
     for ax, metric in zip(axes, ("precision", "sensitivity")):
         for i, a in enumerate(algos):
-            stats = [agg.get((w, a), {}).get(metric, (np.nan, np.nan, 0)) for w in worlds]
+            stats = [agg.get((w, a), {}).get(main_key(metric, w, surface), (np.nan, np.nan, 0))
+                     for w in worlds]
             means = [s[0] for s in stats]
             stds = [s[1] for s in stats]
             ax.bar(x + (i - (len(algos) - 1) / 2) * width, means, width, yerr=stds, capsize=2,
@@ -100,9 +103,12 @@ def _bars(fig_dir: Path, rows: list[dict], run: dict | None) -> Path:
         ax.set_ylim(0, 1.05)
         ax.grid(axis="y", alpha=0.3)
     axes[0].legend(fontsize=8, ncol=len(algos))
-    axes[0].set_title("Occupied-cell precision and sensitivity (mean ± std over repeats)")
+    cell = [w for w in worlds if w not in surface]
+    note = "; marked *: the study's cell rule (no surfaces)" if cell else ""
+    axes[0].set_title(f"Precision and sensitivity ({surface_label(rows)}{note}), mean ± std "
+                      "over repeats")
     axes[-1].set_xticks(x)
-    axes[-1].set_xticklabels(worlds, rotation=20)
+    axes[-1].set_xticklabels([w + (" *" if w in cell else "") for w in worlds], rotation=20)
     path = fig_dir / "precision_sensitivity.png"
     save_figure(fig, path, dpi=110, bbox_inches="tight")
     plt.close(fig)
@@ -119,6 +125,7 @@ def write_figures(out_dir: str | Path, rows: list[dict], run: dict | None = None
     fig_dir = out_dir / "figures"
     fig_dir.mkdir(parents=True, exist_ok=True)
     made: dict[str, str] = {}
+    surface = surface_worlds(rows)
 
     def attempt(caption, fn, *args):
         try:
@@ -135,12 +142,14 @@ def write_figures(out_dir: str | Path, rows: list[dict], run: dict | None = None
             continue
         truth = load_grid(tp)
         medians = {}
+        f1 = main_key("f1", w, surface)
+        by = "F1 (surface form)" if f1 != "f1" else "F1 (the study's cell rule)"
         for a in algo_order(r["algo"] for r in rows if r["world"] == w):
-            row = median_row([r for r in rows if r["world"] == w and r["algo"] == a])
+            row = median_row([r for r in rows if r["world"] == w and r["algo"] == a], f1)
             if row is not None and (out_dir / row["map_file"]).exists():
                 medians[a] = row
                 attempt(f"TP/FP/FN overlay, {w}, {a} (median repeat {row['repeat']})",
-                        _overlay, out_dir, fig_dir, row, truth)
+                        _overlay, out_dir, fig_dir, row, truth, by)
         if medians:
             attempt(f"trajectories, {w}", _trajectories, out_dir, fig_dir, w, medians, truth)
     return made

@@ -1,7 +1,7 @@
 """The benchmark loop: worlds -> cached logs -> SLAM tasks in parallel -> rows as they finish.
 
-`run_benchmark(spec, out_dir, ...)` loads and rasterizes each world (truth grid saved under
-DIR/maps/<world>/truth.npz), records each missing log once (in parallel across worlds and
+`run_benchmark(spec, out_dir, ...)` loads and rasterizes each world (truth grid and visible
+surfaces saved under DIR/maps/<world>/truth.npz), records each missing log once (in parallel across worlds and
 seeds), submits a world's SLAM tasks as soon as its log exists, and stores every finished
 row at once (results.json rewritten atomically, map and trajectory in
 DIR/maps/<world>/<algo>/<repeat>.npz). Ctrl-C or a dead worker loses nothing stored;
@@ -36,7 +36,7 @@ from bench.results import RESULTS_NAME, RUN_NAME, ResultStore, jsonable
 from bench.task import WorldInfo, compile_algorithm, execute, new_row, record_log, versions
 
 __all__ = ["run_benchmark", "RunOutcome", "load_worlds", "default_out_dir", "read_run",
-           "map_path", "truth_path", "run_lock", "write_npz", "LOCK_NAME"]
+           "map_path", "truth_path", "read_truth", "run_lock", "write_npz", "LOCK_NAME"]
 
 LOCK_NAME = ".lock"   # held (flock) by the run writing into the folder; holds its pid
 
@@ -142,7 +142,22 @@ def write_npz(path: Path, **arrays) -> None:
 
 def _save_truth(out_dir: Path, key: str, world, truth) -> None:
     write_npz(truth_path(out_dir, key), prob=truth.prob, resolution=truth.resolution,
-              origin=truth.origin, bounds=np.asarray(world.bounds, dtype=np.float64))
+              origin=truth.origin, bounds=np.asarray(world.bounds, dtype=np.float64),
+              surfaces=np.asarray(world.visible_segments, dtype=np.float64).reshape(-1, 4))
+
+
+def read_truth(out_dir: Path, key: str):
+    """(true Grid, visible surfaces (S, 4) m or None) of world `key` stored by a run; a run
+    written before the surfaces were stored gives None (its maps are scored in the cell form).
+    InputError if the file is missing."""
+    from worlds.grid import Grid
+    p = truth_path(out_dir, key)
+    if not p.is_file():
+        raise InputError(f"{p}: missing: the run's true map of {key} is needed")
+    with np.load(p) as z:
+        grid = Grid(z["prob"], float(z["resolution"]), z["origin"])
+        surfaces = np.asarray(z["surfaces"], dtype=np.float64) if "surfaces" in z else None
+    return grid, surfaces
 
 
 def _save_gt(out_dir: Path, key: str, seed: int, log) -> None:
@@ -240,7 +255,8 @@ def _run_locked(spec: RunSpec, out_dir: Path, jobs, scheduler, resume, progress,
     infos = {}
     for key, w in world_map.items():
         truth = worlds.rasterize(w)
-        infos[key] = WorldInfo(key, truth, tuple(float(v) for v in w.bounds), str(w.source or ""))
+        infos[key] = WorldInfo(key, truth, tuple(float(v) for v in w.bounds), str(w.source or ""),
+                               np.asarray(w.visible_segments, dtype=np.float64).reshape(-1, 4))
         _save_truth(out_dir, key, w, truth)
     configs = {a: load_config_checked(a, spec.configs.get(a), spec.overrides.get(a))
                for a in spec.algos}

@@ -1,11 +1,15 @@
 """summary.md and summary.csv from the rows of results.json, in the reference study's layout.
 
 Table 1 of the study: rows = worlds, columns = algorithms, cells "mean ± std" of ADNN in
-cells. Table 2: per world and algorithm, precision and sensitivity "mean ± std". We add the
-same at a tolerance of 1 cell, ATE, RPE and the real-time factor; the oracle (maps with the
-true poses) is the last column: the ceiling a SLAM could reach with perfect poses.
-The tables and the CSV columns are the columns of metrics.registry: a column with a section
-joins that table, every other one with a value gets a table under "More metrics".
+cells. Table 2: per world and algorithm, precision and sensitivity "mean ± std". The main
+precision / sensitivity / F1 are the surface form's (metrics.surface: the walls' surfaces
+within tau) in every world whose successful rows all have it (simulated worlds); in a world
+whose truth is only a raster they are the study's exact-cell rule, marked "(cell)". The
+study's cell rule stands beside in its own tables and beside the study's published numbers.
+We add the cell rule at a tolerance of 1 cell, ATE, RPE and the real-time factor; the oracle
+(maps with the true poses) is the last column: the ceiling a SLAM could reach with perfect
+poses. The tables and the CSV columns are the columns of metrics.registry: a column with a
+section joins that table, every other one with a value gets a table under "More metrics".
 Statistics use the rows with status "ok"; std is the sample standard deviation (ddof=1,
 0 for a single repeat); failures are counted in their own table.
 A run with several noise draws per world (a suite) also gets, per world, the mean and std
@@ -28,7 +32,8 @@ from metrics.registry import Column
 from worlds.yamlio import atomic_write_text
 
 __all__ = ["aggregate", "summary_markdown", "summary_csv", "write_tables", "mean_std",
-           "algo_order", "world_order", "over_draws", "draw_means"]
+           "algo_order", "world_order", "over_draws", "draw_means", "surface_worlds", "main_key",
+           "surface_label"]
 
 
 def mean_std(values) -> tuple[float, float, int]:
@@ -54,6 +59,58 @@ def world_order(rows: list[dict], run: dict | None = None) -> list[str]:
     seen = set(r["world"] for r in rows)
     return [w for w in named if w in seen] + [w for w in dict.fromkeys(r["world"] for r in rows)
                                               if w not in named]
+
+
+def _fallbacks() -> dict[str, str]:
+    """cell-form key -> the surface-form key shown in its place (the registry's fallbacks)."""
+    return {c.fallback: c.key for c in registry.columns() if c.fallback}
+
+
+def surface_worlds(rows: list[dict]) -> set[str]:
+    """The worlds whose every successful row has the surface form (simulated worlds): their
+    main precision / sensitivity / F1 are the surface form's; the other worlds' (a truth that
+    is only a raster, rows scored before the surface form) are the study's cell rule."""
+    keys = list(_fallbacks().values())
+    ok: dict[str, list[dict]] = {}
+    for r in rows:
+        if r.get("status") == "ok":
+            ok.setdefault(r["world"], []).append(r)
+    return {w for w, rs in ok.items() if all(r.get(k) is not None for r in rs for k in keys)}
+
+
+def main_key(key: str, world: str, surface: set[str]) -> str:
+    """The key shown as the main `key` ("precision", "sensitivity", "f1") of `world`: the
+    surface form's in the `surface` worlds (surface_worlds), else `key` (the cell rule)."""
+    return _fallbacks().get(key, key) if world in surface else key
+
+
+def _tau_text(rows: list[dict]) -> str:
+    """"tau = 0.02 m": the surface form's tolerance in the rows (several if they differ;
+    metrics.surface.DEFAULT_TAU_M if no row has one)."""
+    taus = sorted({float(r["surface_tau_m"]) for r in rows
+                   if r.get("status") == "ok" and r.get("surface_tau_m") is not None})
+    if not taus:
+        from metrics.surface import DEFAULT_TAU_M
+        taus = [DEFAULT_TAU_M]
+    return "tau = " + ", ".join(f"{t:g}" for t in taus) + " m"
+
+
+def surface_label(rows: list[dict]) -> str:
+    """"surface, tau = 0.02 m": the surface form and the tau of the rows."""
+    return f"surface, {_tau_text(rows)}"
+
+
+def _form_note(rows: list[dict], worlds) -> list[str]:
+    """The line under a table of the main precision and sensitivity naming their form."""
+    surface = surface_worlds(rows)
+    cell = [w for w in worlds if w not in surface]
+    text = (f"Main form: {surface_label(rows)} (metrics.surface: an occupied cell is right when "
+            "it lies within tau of a wall surface; sensitivity is the share of the surfaces' "
+            "length within tau of an occupied cell).")
+    if cell:
+        text += (f" Worlds without the surfaces ({', '.join(cell)}: a truth that is only a "
+                 "raster) show the study's cell rule, marked (cell).")
+    return [text, ""]
 
 
 def aggregate(rows: list[dict]) -> dict[tuple[str, str], dict]:
@@ -103,19 +160,25 @@ def _gap(ceiling: dict[int, float] | None, mine: dict[int, float] | None) -> flo
 def _draw_sections(worlds, algos, rows: list[dict], agg: dict) -> list[str]:
     """Per-world mean ± std over draws, the gap to the oracle, and the mean over worlds;
     agg: aggregate(rows), for the row and failure counts."""
-    per_draw = {m: draw_means(rows, m) for m in ("precision", "sensitivity", "adnn_cells", "ate_m")}
+    surface = surface_worlds(rows)
+    forms = _fallbacks()
+    ps_keys = {k for m in ("precision", "sensitivity") for k in (m, forms.get(m, m))}
+    per_draw = {m: draw_means(rows, m) for m in (*sorted(ps_keys), "adnn_cells", "ate_m")}
     stats = {m: {k: mean_std(v.values()) for k, v in d.items()} for m, d in per_draw.items()}
     failed = {k: g["failed"] for k, g in agg.items()}
     total = {k: g["n"] for k, g in agg.items()}
     ps = [("precision", "P"), ("sensitivity", "S")]
     head = [f"{_head(a)} {lab}" for a in algos for _, lab in ps]
-    out = ["## Across noise draws: precision (P) and sensitivity (S), mean ± std over draws", "",
+    out = [f"## Across noise draws: precision (P) and sensitivity (S) ({surface_label(rows)}), "
+           "mean ± std over draws", "", *_form_note(rows, worlds),
            "| world | " + " | ".join(head) + " |", "|---" * (len(head) + 1) + "|"]
     for w in worlds:
         cells = []
         for a in algos:
             for m, _ in ps:
-                c = _cell(stats[m].get((w, a), (math.nan, math.nan, 0)), 3)
+                c = _cell(stats[main_key(m, w, surface)].get((w, a), (math.nan, math.nan, 0)), 3)
+                if c != "–" and w not in surface:
+                    c += " (cell)"
                 if m == "precision" and failed.get((w, a)):
                     c += f" ({failed[(w, a)]}/{total[(w, a)]} failed)"
                 cells.append(c)
@@ -132,7 +195,8 @@ def _draw_sections(worlds, algos, rows: list[dict], agg: dict) -> list[str]:
             cells = []
             for a in slams:
                 for m, _ in ps:
-                    g = _gap(per_draw[m].get((w, "oracle")), per_draw[m].get((w, a)))
+                    k = main_key(m, w, surface)
+                    g = _gap(per_draw[k].get((w, "oracle")), per_draw[k].get((w, a)))
                     if g is None:
                         cells.append("–")
                     else:
@@ -142,12 +206,14 @@ def _draw_sections(worlds, algos, rows: list[dict], agg: dict) -> list[str]:
         out.append("")
     out += ["## Overall: mean over worlds of the per-world means", "",
             "Worlds where an algorithm has no successful draw are left out of its means "
-            "and counted under 'worlds'.", "",
+            f"and counted under 'worlds'. P and S: the main form ({surface_label(rows)}; the "
+            "study's cell rule in worlds marked (cell) above).", "",
             "| algorithm | worlds | P | S | gap P | gap S | ADNN (cells) | ATE (m) | failed rows |",
             "|---|---|---|---|---|---|---|---|---|"]
     for a in algos:
         def avg(metric, fmt):
-            vals = [stats[metric][(w, a)][0] for w in worlds if (w, a) in stats[metric]]
+            keys = {w: main_key(metric, w, surface) for w in worlds}
+            vals = [stats[keys[w]][(w, a)][0] for w in worlds if (w, a) in stats[keys[w]]]
             return (fmt.format(float(np.mean(vals))) if vals else "–"), len(vals)
         p, n_w = avg("precision", "{:.3f}")
         sens, _ = avg("sensitivity", "{:.3f}")
@@ -165,22 +231,30 @@ def _draw_sections(worlds, algos, rows: list[dict], agg: dict) -> list[str]:
     return out
 
 
-def _study_sections(worlds, algos, agg) -> list[str]:
-    """Our algorithms beside the study's algorithm of the same family, on the study worlds."""
+def _study_sections(worlds, algos, agg, rows: list[dict]) -> list[str]:
+    """Our algorithms beside the study's algorithm of the same family, on the study worlds:
+    the study's cell rule (the form of its numbers) beside its numbers, our main (surface)
+    form after them."""
     from bench.study import FAMILY, STUDY, STUDY_WORLDS
     shown = [w for w in STUDY_WORLDS if w in worlds]
     ours = [a for a in FAMILY if a in algos]
     if not shown or not ours:
         return []
-    head = []
-    for a in ours:
-        head += [f"{FAMILY[a]} (study)", a]
+    surface = surface_worlds(rows)
+    form = surface_label(rows)
     out = ["## Beside the reference study (Zi et al., Tables 1-2)", "",
            "The study ran Gmapping, Hector and Cartographer in ROS on one Gazebo log per world, "
            "10 runs each; its numbers stand beside our algorithm of the same family. Ours: mean "
-           "± std over every successful row of this run (all draws and repeats).", ""]
-    for title, metrics, dec in (("Precision / sensitivity", ("precision", "sensitivity"), 3),
-                                ("ADNN (cells)", ("adnn_cells",), 2)):
+           "± std over every successful row of this run (all draws and repeats), scored with "
+           f"the study's cell rule as the study's numbers are, then in the surface form ({form}).",
+           ""]
+    for title, metrics, dec, forms in (
+            ("Precision / sensitivity", ("precision", "sensitivity"), 3,
+             (("study's cell rule", False), (form, True))),
+            ("ADNN (cells)", ("adnn_cells",), 2, (("", False),))):
+        head = []
+        for a in ours:
+            head += [f"{FAMILY[a]} (study)"] + [f"{a} ({f})" if f else a for f, _ in forms]
         out += [f"### {title}", "", "| world | " + " | ".join(head) + " |",
                 "|---" * (len(head) + 1) + "|"]
         for w in shown:
@@ -189,7 +263,12 @@ def _study_sections(worlds, algos, agg) -> list[str]:
                 theirs = STUDY[FAMILY[a]]
                 cells.append(" / ".join(f"{theirs[m][w][0]:.{min(dec, 2)}f}" for m in metrics))
                 g = agg.get((w, a))
-                cells.append(" / ".join(_cell(g[m], dec) for m in metrics) if g else "–")
+                for _, main in forms:
+                    if not g or (main and w not in surface):
+                        cells.append("–")
+                        continue
+                    keys = [main_key(m, w, surface) if main else m for m in metrics]
+                    cells.append(" / ".join(_cell(g[k], dec) for k in keys))
             out.append(f"| {w} | " + " | ".join(cells) + " |")
         out.append("")
     return out
@@ -206,8 +285,9 @@ def _head(algo: str) -> str:
     return "oracle (ceiling)" if algo == "oracle" else algo
 
 
-def _table(worlds, algos, agg, cols: list[Column]) -> str:
-    """Markdown table: one row per world, one column per algorithm x registry column."""
+def _table(worlds, algos, agg, cols: list[Column], surface: set[str]) -> str:
+    """Markdown table: one row per world, one column per algorithm x registry column; a column
+    with a fallback shows the fallback key, marked (cell), in worlds not in `surface`."""
     multi = len(cols) > 1
     heads = [f"{_head(a)} {c.short}" if multi else _head(a) for a in algos for c in cols]
     lines = ["| world | " + " | ".join(heads) + " |", "|---" * (len(heads) + 1) + "|"]
@@ -216,7 +296,10 @@ def _table(worlds, algos, agg, cols: list[Column]) -> str:
         for a in algos:
             g = agg.get((w, a))
             for c in cols:
-                cell = _cell(g[c.key], c.decimals) if g else "–"
+                key = c.fallback if c.fallback and w not in surface else c.key
+                cell = _cell(g[key], c.decimals) if g else "–"
+                if key != c.key and cell != "–":
+                    cell += " (cell)"
                 if g and g["failed"] and c is cols[0]:
                     cell += f" ({g['failed']}/{g['n']} failed)"
                 cells.append(cell)
@@ -224,21 +307,25 @@ def _table(worlds, algos, agg, cols: list[Column]) -> str:
     return "\n".join(lines)
 
 
-def _metric_sections(worlds, algos, agg) -> list[str]:
+def _metric_sections(worlds, algos, agg, rows: list[dict]) -> list[str]:
     """One table per registered section, then one per other column that has a value."""
     cols = registry.columns()
+    surface = surface_worlds(rows)
     out = []
     for sec in registry.sections():
         mine = [c for c in cols if c.section == sec.name]
         if mine:
-            out += [f"## {sec.title}", "", _table(worlds, algos, agg, mine), ""]
-    rest = [c for c in cols if not c.section and any(g[c.key][2] for g in agg.values())]
+            note = _form_note(rows, worlds) if any(c.fallback for c in mine) else []
+            out += [f"## {sec.title}", "", *note, _table(worlds, algos, agg, mine, surface), ""]
+    rest = [c for c in cols if not c.section and any(
+        g[k][2] for g in agg.values() for k in (c.key, c.fallback) if k)]
     if rest:
         out += ["## More metrics, mean ± std", ""]
         for c in rest:
             better = {True: " (higher is better)", False: " (lower is better)"}.get(
                 c.higher_is_better, "")
-            out += [f"### {c.label}{better}", "", _table(worlds, algos, agg, [c]), ""]
+            label = f"{c.label}, {_tau_text(rows)}" if c.fallback else c.label
+            out += [f"### {label}{better}", "", _table(worlds, algos, agg, [c], surface), ""]
     return out
 
 
@@ -270,8 +357,8 @@ def summary_markdown(rows: list[dict], run: dict | None = None,
             f"that succeeded (sample std).{ceiling}", ""]
     if draws > 1 or any(int(r.get("draw", 0)) > 0 for r in rows):
         out += _draw_sections(worlds, algos, rows, agg)
-    out += _study_sections(worlds, algos, agg)
-    out += _metric_sections(worlds, algos, agg)
+    out += _study_sections(worlds, algos, agg, rows)
+    out += _metric_sections(worlds, algos, agg, rows)
     failed = [(k, g) for k, g in agg.items() if g["failed"]]
     if failed:
         out += ["## Failures", "", "| world | algorithm | failed | errors |", "|---|---|---|---|"]

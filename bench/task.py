@@ -33,12 +33,15 @@ TOLERANCES = (0, 1, 2)
 
 @dataclass(frozen=True, eq=False)
 class WorldInfo:
-    """What a worker needs of a world: its key, the truth grid and bounds (xmin, ymin, xmax, ymax)."""
+    """What a worker needs of a world: its key, the truth grid, bounds (xmin, ymin, xmax, ymax)
+    and visible surfaces (S, 4) x0, y0, x1, y1 m (World.visible_segments; None for a truth that
+    is only a raster: then maps are scored in the study's cell form only)."""
 
     key: str
     truth: Grid
     bounds: tuple[float, float, float, float]
     source: str = ""
+    surfaces: np.ndarray | None = None
 
 
 _VERSIONS: dict | None = None
@@ -147,13 +150,15 @@ def _scalars(d: dict) -> dict:
     return {k: v for k, v in d.items() if isinstance(v, (int, float, str, bool, np.generic)) or v is None}
 
 
-def _score(grid: Grid, truth: Grid) -> dict:
-    """Every registered map metric at tolerance 0; the per-tolerance keys again at 1 and 2
-    cells, under the same alignment (the SLAM starts at the true pose: ICP refines from
-    identity)."""
+def _score(grid: Grid, truth: Grid, surfaces: np.ndarray | None = None) -> dict:
+    """Every registered map metric at tolerance 0 (the surface form at metrics.surface's
+    DEFAULT_TAU_M when the world's surfaces (S, 4) are given); the per-tolerance keys again at
+    1 and 2 cells, under the same alignment (the SLAM starts at the true pose: ICP refines
+    from identity)."""
     from metrics import registry
     from metrics.score import map_context, score_context
-    ctx = map_context(grid, truth, align="auto", initial=(0.0, 0.0, 0.0), tolerance=0)
+    ctx = map_context(grid, truth, align="auto", initial=(0.0, 0.0, 0.0), tolerance=0,
+                      surfaces=surfaces)
     s = score_context(ctx)
     out = _scalars(s)
     al = s["align"]
@@ -240,7 +245,7 @@ def execute(task, world: WorldInfo, log_source, config=None, noise: str = "", va
             row.update(status="failed", error=problem)
         else:
             s0 = time.perf_counter()
-            row.update(_score(result.grid, world.truth))
+            row.update(_score(result.grid, world.truth, world.surfaces))
             if log.has_ground_truth:
                 row.update(_trajectory_scores(result, log))
             row["score_time_s"] = time.perf_counter() - s0

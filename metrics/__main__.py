@@ -68,6 +68,7 @@ def _picture_arg(text: str) -> str:
 
 def build_parser() -> argparse.ArgumentParser:
     from metrics.align import MODES
+    from metrics.surface import DEFAULT_TAU_M
 
     p = Parser(prog="python -m metrics", description="Score maps and trajectories.")
     sub = p.add_subparsers(dest="command", required=True)
@@ -78,7 +79,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="the world's YAML (surface form and the study's cell rule) or a true map "
                         "(ROS map_server YAML + PGM: the cell rule only)")
     s.add_argument("--tau", type=number(0.0, 1.0), default=None, metavar="M",
-                   help="tolerance of the surface form in metres, 0..1 (default 0.02); needs a world")
+                   help=f"tolerance of the surface form in metres, 0..1 (default "
+                        f"{DEFAULT_TAU_M:g}); needs a world")
     s.add_argument("--align", default="auto", choices=MODES,
                    help="alignment mode (default auto: icp from --start, global if --start none)")
     s.add_argument("--start", type=_pose_arg, default=(0.0, 0.0, 0.0), metavar="X,Y,YAW",
@@ -173,19 +175,19 @@ def _score(args) -> int:
     if not est.occupied(args.occupied_thresh).any():
         raise InputError(f"{args.map}: the map has no occupied cell (p >= {args.occupied_thresh}): "
                          "precision and ADNN undefined")
+    surfaces = visible_surfaces(world) if world is not None else None
+    # the benchmark's scorer: both forms under one alignment (bench.task._score)
     res = score_map(est, truth, align=args.align, initial=args.start, tolerance=args.tolerance,
-                    occupied_thresh=args.occupied_thresh)
+                    occupied_thresh=args.occupied_thresh, surfaces=surfaces, tau_m=tau)
     forms = {"precision": f"cell: the study's exact rule, tolerance {args.tolerance} cells"}
-    surface = None
     if world is not None:
-        surface = classify_surface(est, visible_surfaces(world), pose_of(res["align"]), tau,
-                                   args.occupied_thresh)
-        res = {**surface.counts, **res}
         forms["surface_precision"] = f"surface: wall surfaces of {world.name}, tau {tau:g} m"
     res["forms"] = forms
     if args.picture:
-        if surface is not None:
+        if surfaces is not None:
             from metrics.plot import save_surface
+            surface = classify_surface(est, surfaces, pose_of(res["align"]), tau,
+                                       args.occupied_thresh)
             save_surface(surface, args.picture, title=args.title)
         else:
             save_overlay_png(est, truth, res["align"], args.picture, title=args.title,

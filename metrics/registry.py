@@ -40,6 +40,8 @@ class Column:
     section: str = ""                       # a Section's name; "": the "More metrics" section
     short: str = ""                         # its label in a section of several keys ("P")
     tolerance: float | None = None          # regress: allowed worsening of the mean
+    fallback: str = ""                      # a key shown instead in worlds whose rows lack
+                                            # this one (the surface form -> the cell form)
 
     @property
     def worse(self) -> str:
@@ -97,6 +99,9 @@ def _check(m: Metric) -> None:
         shown.add(c.key)
         if c.section and c.section not in _SECTIONS:
             raise ValueError(f"metric {m.name!r}: column {c.key!r}: no section {c.section!r}")
+        if c.fallback and c.fallback not in shown:
+            raise ValueError(f"metric {m.name!r}: column {c.key!r}: fallback {c.fallback!r} is "
+                             "not a column registered before it")
         if c.tolerance is not None and c.higher_is_better is None:
             raise ValueError(f"metric {m.name!r}: column {c.key!r} has a tolerance but no "
                              "better direction")

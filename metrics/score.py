@@ -3,7 +3,8 @@
 Steps: occupied cell centres of the estimate -> alignment (align.py) -> the estimate resampled
 onto the truth's grid, extended to hold all of it (resample.py) -> a MapContext holding these
 -> every registered map metric (metrics.registry, in registration order: TP/FP/FN, ADNN both
-ways, the alignment used, SSIM and the ground-truth-free metrics of the estimate).
+ways, the surface form when the world's surfaces are given, the alignment used, SSIM and
+the ground-truth-free metrics of the estimate).
 """
 from __future__ import annotations
 
@@ -15,6 +16,7 @@ from metrics import registry
 from metrics.align import AlignConfig, Alignment, align_points
 from metrics.grid_portion import Classification, classify_masks
 from metrics.resample import extended_grid, resample_onto
+from metrics.surface import DEFAULT_TAU_M
 from metrics.truth import PreparedTruth, prepare_truth
 from slam.pose import transform_points
 from worlds.grid import OCCUPIED_THRESH, Grid
@@ -40,8 +42,10 @@ class Overlay:
 @dataclass(frozen=True)
 class MapContext:
     """What a map metric reads: the estimate, the prepared truth, the alignment, the estimate's
-    occupied cell centres (N, 2) in its own frame and aligned to the truth (world m), and the
-    overlay on the truth's grid, classified at `overlay.classes.tolerance` cells."""
+    occupied cell centres (N, 2) in its own frame and aligned to the truth (world m), the
+    overlay on the truth's grid, classified at `overlay.classes.tolerance` cells, and the
+    world's visible surfaces (S, 4) x0, y0, x1, y1 m with the surface form's tolerance tau_m
+    (m); surfaces None: the truth is only a raster, the surface form does not apply."""
 
     estimate: Grid
     truth: PreparedTruth
@@ -50,6 +54,8 @@ class MapContext:
     aligned_points: np.ndarray
     overlay: Overlay
     occupied_thresh: float
+    surfaces: np.ndarray | None = None
+    tau_m: float = DEFAULT_TAU_M
 
     def at_tolerance(self, tolerance: int) -> MapContext:
         """The same context with the overlay classified at `tolerance` cells."""
@@ -94,15 +100,18 @@ def classify(estimate: Grid, truth: Grid | PreparedTruth, align, tolerance: int 
 def map_context(estimate: Grid, truth: Grid | PreparedTruth, align: str = "auto",
                 initial=(0.0, 0.0, 0.0), tolerance: int = 0,
                 occupied_thresh: float = OCCUPIED_THRESH,
-                config: AlignConfig | None = None) -> MapContext:
+                config: AlignConfig | None = None, surfaces: np.ndarray | None = None,
+                tau_m: float = DEFAULT_TAU_M) -> MapContext:
     """Align `estimate` to `truth` and build the MapContext the map metrics read (arguments
     as score_map's)."""
     t = prepare_truth(truth, occupied_thresh)
     est_pts = estimate.occupied_xy(occupied_thresh)
     al = align_points(est_pts, t, align, initial, config or AlignConfig())
     ov = _overlay(estimate, t, al.pose, est_pts, int(tolerance), occupied_thresh)
+    if surfaces is not None:
+        surfaces = np.asarray(surfaces, dtype=np.float64).reshape(-1, 4)
     return MapContext(estimate, t, al, est_pts, transform_points(al.pose, est_pts), ov,
-                      occupied_thresh)
+                      occupied_thresh, surfaces, float(tau_m))
 
 
 def score_context(ctx: MapContext, gtfree: bool = True) -> dict:
@@ -117,14 +126,20 @@ def score_context(ctx: MapContext, gtfree: bool = True) -> dict:
 def score_map(estimate: Grid, truth: Grid | PreparedTruth, align: str = "auto",
               initial=(0.0, 0.0, 0.0), tolerance: int = 0,
               occupied_thresh: float = OCCUPIED_THRESH, config: AlignConfig | None = None,
-              gtfree: bool = True) -> dict:
+              gtfree: bool = True, surfaces: np.ndarray | None = None,
+              tau_m: float = DEFAULT_TAU_M) -> dict:
     """Score an estimated map against the true map.
 
     estimate, truth: Grids (any resolution, size and origin; truth may be a PreparedTruth to
     reuse its k-d tree across calls); align: "auto" | "none" | "start" | "icp" | "global";
     initial: (3,) prior transform estimate -> truth (x, y m, yaw rad) or None when unknown;
-    tolerance: cells (Chebyshev) within which occupied cells match.
-    Returns a dict: precision, sensitivity, f1, tp, fp, fn, tp_truth, tolerance, adnn_m,
+    tolerance: cells (Chebyshev) within which occupied cells match; surfaces: the world's
+    visible surfaces (S, 4) x0, y0, x1, y1 m (metrics.surface.visible_surfaces) for the
+    surface form at tau_m metres under the same alignment, None for a truth that is only a
+    raster (then no surface_* keys).
+    Returns a dict: precision, sensitivity, f1, tp, fp, fn, tp_truth, tolerance (the study's
+    cell rule), surface_precision, surface_sensitivity, surface_f1, surface_tp, surface_fp,
+    surface_length_m, surface_covered_m, surface_tau_m (with surfaces), adnn_m,
     adnn_cells, adnn_reverse_m, adnn_reverse_cells, chamfer_m, chamfer_cells, align
     {"x","y","yaw"}, align_mode, align_inlier_fraction, align_rms_m, est_occupied,
     true_occupied, resolution, ssim, occupied_fraction, free_fraction, corners,
@@ -132,7 +147,8 @@ def score_map(estimate: Grid, truth: Grid | PreparedTruth, align: str = "auto",
     something is undefined (empty estimate: ratios 0, distances NaN).
     Raises InputError when the true map has no occupied cell.
     """
-    ctx = map_context(estimate, truth, align, initial, tolerance, occupied_thresh, config)
+    ctx = map_context(estimate, truth, align, initial, tolerance, occupied_thresh, config,
+                      surfaces, tau_m)
     return score_context(ctx, gtfree)
 
 

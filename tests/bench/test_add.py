@@ -69,16 +69,21 @@ def test_outside_map_scores_as_the_oracle(run, tmp_path, capsys):
     assert (mine["repeat"], mine["draw"], mine["slam_seed"]) == (0, 0, None)
     assert mine["log_seed"] == oracle["log_seed"]
     assert mine["map_source"] == str(yaml_path.resolve())
-    for key in ("precision", "sensitivity", "precision_t1", "sensitivity_t1", "adnn_cells"):
+    for key in ("precision", "sensitivity", "precision_t1", "sensitivity_t1", "adnn_cells",
+                "surface_precision", "surface_sensitivity", "surface_f1"):
         assert mine[key] == pytest.approx(oracle[key], abs=1e-12), key
     assert mine["ate_m"] == pytest.approx(0.0, abs=1e-6)
     assert (run / mine["map_file"]).is_file()
 
     md = (run / "summary.md").read_text()
-    ps = _table_cells(md, "## Table 2:")
-    assert ps["oracle_copy P"] == f"{oracle['precision']:.3f} ± 0.000" == ps["oracle (ceiling) P"]
-    assert ps["oracle_copy S"] == f"{oracle['sensitivity']:.3f} ± 0.000" == ps["oracle (ceiling) S"]
+    ps = _table_cells(md, "## Table 2:")     # the main table: the surface form
+    assert ps["oracle_copy P"] == f"{oracle['surface_precision']:.3f} ± 0.000" == \
+        ps["oracle (ceiling) P"]
+    assert ps["oracle_copy S"] == f"{oracle['surface_sensitivity']:.3f} ± 0.000" == \
+        ps["oracle (ceiling) S"]
     assert "fake_map P" in ps
+    cell = _table_cells(md, "## Table 2, the study's cell rule")
+    assert cell["oracle_copy P"] == f"{oracle['precision']:.3f} ± 0.000" == cell["oracle (ceiling) P"]
     assert _table_cells(md, "## Table 1:")["oracle_copy"] == f"{oracle['adnn_cells']:.2f} ± 0.00"
     assert "(`bench add`): oracle_copy." in md
     assert "tiny,oracle_copy,1,0," in (run / "summary.csv").read_text()
@@ -91,7 +96,7 @@ def test_outside_map_scores_as_the_oracle(run, tmp_path, capsys):
     second = _row(run, "oracle_copy", 1)
     assert second["precision"] == mine["precision"] and second["ate_m"] is None
     assert _table_cells((run / "summary.md").read_text(), "## Table 2:")["oracle_copy P"] == \
-        f"{oracle['precision']:.3f} ± 0.000"
+        f"{oracle['surface_precision']:.3f} ± 0.000"
     added = json.loads((run / "run.json").read_text())["added"]
     assert [(a["algo"], a["repeat"]) for a in added] == [("oracle_copy", 0), ("oracle_copy", 1)]
 
@@ -177,3 +182,25 @@ def test_trajectory_without_a_true_path_is_refused(run, tmp_path, capsys):
     assert "gt_s0.npz: missing: the run's true path of tiny log seed 0 is needed" in _err_line(capsys)
     assert main(["add", str(run), "--world", "tiny", "--algo", "x", "--map", str(yaml_path),
                  "--no-figures"]) == 0
+
+
+def _npz(path):
+    with np.load(path) as z:
+        return {k: z[k] for k in z.files}
+
+def test_a_run_stored_before_the_surfaces_scores_the_cell_form(run, tmp_path, capsys):
+    """truth.npz without `surfaces` (a run folder written before them) still loads: the added
+    row has the cell form only, and the world's tables fall back to the cell form."""
+    p = run / "maps" / "tiny" / "truth.npz"
+    z = _npz(p)
+    assert z.pop("surfaces").shape[1] == 4
+    np.savez_compressed(p, **z)
+    yaml_path, _ = _oracle_files(run, tmp_path)
+    assert main(["add", str(run), "--world", "tiny", "--algo", "old", "--map", str(yaml_path)]) == 0
+    assert "(study's cell rule)" in capsys.readouterr().out
+    old, oracle = _row(run, "old"), _row(run, "oracle")
+    assert "surface_precision" not in old and old["precision"] == oracle["precision"]
+    md = (run / "summary.md").read_text()
+    ps = _table_cells(md, "## Table 2:")
+    assert ps["old P"] == f"{oracle['precision']:.3f} ± 0.000 (cell)" == ps["oracle (ceiling) P"]
+    assert "Worlds without the surfaces (tiny" in md

@@ -43,7 +43,22 @@ def test_run_report_and_refusal_to_overwrite(tiny, tmp_path, capsys):
     assert f"report: {out / 'summary.md'}" in captured.out
     md = (out / "summary.md").read_text()
     assert "| world | fake_map | fake_raise |" in md and "| tiny | " in md
-    assert (out / "summary.csv").exists()
+    # the main table is the surface form, the study's cell rule beside it; both in the CSV
+    from bench import read_rows
+    from metrics.surface import DEFAULT_TAU_M
+    ok = [r for r in read_rows(out) if r["status"] == "ok"]
+    lines = md.splitlines()
+    main_t = lines.index("## Table 2: precision (P) and sensitivity (S) of the walls, surface "
+                         "form, mean ± std")
+    assert lines[main_t + 2].startswith(f"Main form: surface, tau = {DEFAULT_TAU_M:g} m")
+    mean = sum(r["surface_precision"] for r in ok) / len(ok)
+    assert lines[main_t + 6].startswith(f"| tiny | {mean:.3f} ± ")
+    cell_t = next(i for i, line in enumerate(lines) if line.startswith("## Table 2, the study's"))
+    mean = sum(r["precision"] for r in ok) / len(ok)
+    assert lines[cell_t + 4].startswith(f"| tiny | {mean:.3f} ± ")
+    csv_head = (out / "summary.csv").read_text().splitlines()[0].split(",")
+    assert {"surface_precision_mean", "surface_sensitivity_std", "surface_f1_mean",
+            "precision_mean", "sensitivity_mean"} <= set(csv_head)
     assert (out / "figures" / "overlay_tiny_fake_map.png").exists()
     assert (out / "figures" / "trajectories_tiny.png").exists()
     assert (out / "figures" / "precision_sensitivity.png").exists()

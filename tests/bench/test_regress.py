@@ -39,10 +39,37 @@ def test_regress_update_then_check_then_detect(tiny, tmp_path, capsys):
     assert "no regression" in capsys.readouterr().out
     # a baseline that was better than we are now: exit 1 and say what got worse
     data["means"]["tiny/fake_map"]["precision"] += 0.1
+    data["means"]["tiny/fake_map"]["surface_sensitivity"] += 0.1
     base.write_text(json.dumps(data))
     assert regress(base, jobs=1, progress=False) == 1
     out = capsys.readouterr().out
-    assert "regression: 1 metric(s) got worse" in out and "tiny/fake_map: precision dropped" in out
+    assert "regression: 2 metric(s) got worse" in out and "tiny/fake_map: precision dropped" in out
+    assert "tiny/fake_map: surface_sensitivity dropped" in out
+
+
+def test_a_baseline_from_before_the_surface_form_is_checked_without_it(tiny, tmp_path, capsys):
+    """A baseline written before the surface form (no surface_* means or tolerances): the
+    surface keys are skipped with a note, everything else is checked as before."""
+    base = tmp_path / "baseline.json"
+    kw = dict(worlds=[tiny], algos=["fake_map"], repeats=1, jobs=1, progress=False)
+    assert regress(base, update=True, **kw) == 0
+    data = json.loads(base.read_text())
+    assert data["tolerances"]["surface_precision"] == ["drop", 0.03]
+    assert data["means"]["tiny/fake_map"]["surface_precision"] > 0
+    for part in (data["tolerances"], *data["means"].values()):
+        for k in [k for k in part if k.startswith("surface_")]:
+            del part[k]
+    base.write_text(json.dumps(data))
+    capsys.readouterr()
+    assert regress(base, jobs=1, progress=False) == 0
+    out = capsys.readouterr().out
+    assert ("metrics the baseline has no value of (not checked; refresh it with --update): "
+            "surface_precision, surface_sensitivity") in out
+    assert "no regression" in out
+    data["means"]["tiny/fake_map"]["precision"] += 0.1      # the old keys are still checked
+    base.write_text(json.dumps(data))
+    assert regress(base, jobs=1, progress=False) == 1
+    assert "tiny/fake_map: precision dropped" in capsys.readouterr().out
 
 
 def test_committed_baseline_is_the_default_matrix():

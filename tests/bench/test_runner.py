@@ -12,6 +12,8 @@ import pytest
 
 from bench import RunSpec, comparable, read_rows, run_benchmark
 from bench import cache
+from bench.runner import read_truth
+from worlds.grid import Grid
 from tests.bench import fakes
 from worlds.yamlio import InputError
 
@@ -43,6 +45,17 @@ def test_rows_metrics_failures_and_maps(tiny, tmp_path):
     assert by[("fake_diverge", 0)]["error"].startswith("diverged: pose")
     with np.load(tmp_path / "run" / good["map_file"]) as z:
         assert z["prob"].ndim == 2 and z["poses"].shape[1] == 3
+        grid = Grid(z["prob"], float(z["resolution"]), z["origin"])
+    # the surface form, under the alignment the cell form found, at the default tau, against
+    # the world's visible surfaces stored beside the true map
+    from metrics.surface import DEFAULT_TAU_M, classify_surface
+    import worlds
+    truth, surfaces = read_truth(tmp_path / "run", "tiny")
+    np.testing.assert_array_equal(surfaces, worlds.load_world(tiny).visible_segments)
+    expect = classify_surface(grid, surfaces, [good[f"align_{k}"] for k in ("x", "y", "yaw")],
+                              DEFAULT_TAU_M).counts
+    assert {k: good[k] for k in expect} == pytest.approx(expect)
+    assert good["surface_tau_m"] == DEFAULT_TAU_M and 0.5 < good["surface_precision"] <= 1
     run = json.loads((tmp_path / "run" / "run.json").read_text())
     assert run["spec"]["repeats"] == 2 and "fake_map" in run["configs"]
     # the same rows in this process as in two worker processes

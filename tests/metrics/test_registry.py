@@ -15,13 +15,18 @@ SCORE_KEYS = [
     "align", "align_mode", "align_inlier_fraction", "align_rms_m", "est_occupied",
     "true_occupied", "resolution", "ssim", "occupied_fraction", "free_fraction", "corners",
     "enclosed_areas"]
+SURFACE_KEYS = ["surface_precision", "surface_sensitivity", "surface_f1", "surface_tp",
+                "surface_fp", "surface_length_m", "surface_covered_m", "surface_tau_m"]
 
 
 def test_score_map_keys_are_the_registered_ones_in_order():
     truth = draw(ROOM)
-    assert list(score_map(truth, truth)) == SCORE_KEYS
+    assert list(score_map(truth, truth)) == SCORE_KEYS   # no surfaces: no surface form
     assert list(score_map(truth, truth, gtfree=False)) == SCORE_KEYS[:-5]
-    assert [k for m in registry.metrics("map") for k in m.keys if k != "note"] == SCORE_KEYS
+    with_surface = SCORE_KEYS[:8] + SURFACE_KEYS + SCORE_KEYS[8:]
+    segs = np.array([[0.0, 0.0, 1.0, 0.0]])
+    assert list(score_map(truth, truth, surfaces=segs)) == with_surface
+    assert [k for m in registry.metrics("map") for k in m.keys if k != "note"] == with_surface
 
 
 def test_trajectory_metrics_through_the_registry():
@@ -43,7 +48,14 @@ def test_builtin_columns_and_tolerances():
     assert {"precision", "sensitivity_t1", "adnn_cells", "ate_m", "realtime_factor"} <= set(keys)
     assert registry.tolerances()["precision"] == ("drop", 0.03)
     assert registry.tolerances()["adnn_cells"] == ("rise", 0.3)
-    assert [s.name for s in registry.sections()][:3] == ["adnn", "ps", "ps_t1"]
+    assert registry.tolerances()["surface_precision"] == ("drop", 0.03)
+    assert registry.tolerances()["surface_sensitivity"] == ("drop", 0.03)
+    assert [s.name for s in registry.sections()][:4] == ["adnn", "ps", "ps_cell", "ps_t1"]
+    shown = {c.key: c for c in registry.columns()}
+    assert shown["surface_precision"].section == "ps" and shown["precision"].section == "ps_cell"
+    assert {c.key: c.fallback for c in registry.columns() if c.fallback} == {
+        "surface_precision": "precision", "surface_sensitivity": "sensitivity",
+        "surface_f1": "f1"}
 
 
 def _metric(name="toy", keys=("toy_value",), **kw):
@@ -59,6 +71,7 @@ def _metric(name="toy", keys=("toy_value",), **kw):
     (_metric(columns=(Column("toy_value_t1", "x"),)), "none of its keys"),
     (_metric(columns=(Column("toy_value", "x", section="nope"),)), "no section 'nope'"),
     (_metric(columns=(Column("toy_value", "x", tolerance=0.1),)), "no better direction"),
+    (_metric(columns=(Column("toy_value", "x", fallback="nope"),)), "fallback 'nope'"),
     (_metric(compute=None), "no compute function"),
     (Metric("toy", "sometimes", ("toy_value",), (Column("toy_value", "x"),), compute=len),
      "kind must be one of"),

@@ -195,3 +195,28 @@ def test_coarser_estimate_of_a_shipped_world():
     truth = rasterize(world)
     r = score_map(rasterize(world, resolution=0.1), truth, tolerance=1)
     assert r["precision"] > 0.95 and r["sensitivity"] > 0.95
+
+
+def test_surface_form_under_the_cell_forms_alignment():
+    """With the world's surfaces, score_map reports the surface form at the default tau under
+    the alignment it found for the cell form; without them, none of its keys."""
+    from metrics.surface import DEFAULT_TAU_M, classify_surface, visible_surfaces
+    from worlds.load import world_from_dict
+    from worlds.raster import rasterize
+    world = world_from_dict({"walls": {"thickness": 0.1, "polylines": [
+        [[0, 0], [3.0, 0], [3.0, 2.0], [0, 2.0], [0, 0]]]},
+        "obstacles": [{"box": {"center": [2.0, 1.0], "size": [0.4, 0.3], "yaw": 0.5}}],
+        "robot": {"start": [0.6, 0.6, 0.0]}}, where="room.yaml")
+    truth, segs = rasterize(world), visible_surfaces(world)
+    move = np.array([0.15, 0.1, np.deg2rad(2.0)])            # the map's frame in the world
+    est = Grid(truth.prob, truth.resolution, compose(inverse(move), truth.origin))
+    r = score_map(est, truth, surfaces=segs)
+    al = np.array([r["align"][k] for k in ("x", "y", "yaw")])
+    expect = classify_surface(est, segs, al, DEFAULT_TAU_M).counts
+    assert {k: r[k] for k in expect} == expect
+    assert r["surface_tau_m"] == DEFAULT_TAU_M
+    assert r["surface_precision"] == 1.0 and r["surface_sensitivity"] == pytest.approx(1.0)
+    # unaligned, the moved map scores far lower: the alignment was applied
+    assert classify_surface(est, segs, (0, 0, 0), DEFAULT_TAU_M).portion.surface_precision < 0.2
+    assert score_map(est, truth, surfaces=segs, tau_m=0.0)["surface_tau_m"] == 0.0
+    assert not any(k.startswith("surface_") for k in score_map(est, truth))
