@@ -72,10 +72,13 @@ def build_parser() -> argparse.ArgumentParser:
     a.add_argument("--world", required=True, metavar="W", help="one of the run's worlds, as its rows name it")
     a.add_argument("--algo", required=True, metavar="NAME",
                    help="the outside algorithm's name, not one of the run's (e.g. slam_toolbox)")
-    a.add_argument("--map", required=True, metavar="MAP.yaml",
-                   help="its map: a map_server YAML with a PGM or PNG image")
+    a.add_argument("--map", metavar="MAP.yaml",
+                   help="its map: a map_server YAML with a PGM or PNG image (or --render)")
     a.add_argument("--trajectory", metavar="T.tum",
                    help="its TUM trajectory, scored against the true path of the draw's log")
+    a.add_argument("--render", action="store_true",
+                   help="instead of --map: build the map from --trajectory and the draw's log "
+                        "with this project's output map")
     a.add_argument("--draw", type=non_negative_int, default=0, metavar="K",
                    help="the noise draw whose log it ran on (default 0)")
     a.add_argument("--no-figures", action="store_true", help="rebuild the tables only")
@@ -179,7 +182,7 @@ def cmd_report(args) -> int:
 def cmd_add(args) -> int:
     from bench.add import add_outside
     row = add_outside(args.dir, args.world, args.algo, args.map, args.trajectory, args.draw,
-                      figures=not args.no_figures)
+                      figures=not args.no_figures, render=args.render)
     def num(key):
         return "–" if row.get(key) is None else f"{row[key]:.3f}"
     traj = f", ATE {num('ate_m')} m" if args.trajectory else ""

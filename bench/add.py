@@ -4,10 +4,12 @@ A ROS SLAM run on a bag exported from one of the run's logs (`python -m sim expo
 map_server pair and, say, a TUM trajectory. The map is scored exactly as the runner scores its
 own (bench.task._score against the run's stored true map and the world's surfaces, ICP from
 identity: the exported odometry starts at the true start pose, so the map is in the world
-frame), the trajectory
-against the stored true path of the draw's log. The row, marked `source: "outside"`, joins
-results.json under the run folder's lock, so the report shows the outside algorithm beside
-the run's own.
+frame), the trajectory against the stored true path of the draw's log. With render=True the
+map is not taken from the outside SLAM but built from its trajectory and the draw's log with
+this project's output map (`render_map`), as every algorithm's map is built here: the outside
+SLAM is then compared pose for pose and map for map. The row, marked `source: "outside"`
+(and `rendered`), joins results.json under the run folder's lock, so the report shows the
+outside algorithm beside the run's own.
 """
 from __future__ import annotations
 
@@ -26,9 +28,12 @@ from bench.results import RESULTS_NAME, RUN_NAME, ResultStore, jsonable, read_ro
 from bench.runner import map_path, read_run, read_truth, run_lock, write_npz
 from bench.task import _score, new_row, score_trajectory
 
-__all__ = ["add_outside", "SOURCE"]
+__all__ = ["add_outside", "render_map", "draw_log_path", "SOURCE"]
 
 SOURCE = "outside"
+# TUM files print times to 1e-9 s or coarser: a scan at the trajectory's first or last stamp,
+# rounded, must still count as inside its time span
+_SPAN_SLACK_S = 1e-6
 # the name becomes a folder under maps/ and part of figure file names
 _NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.+-]*")
 
@@ -81,18 +86,75 @@ def _draw_log_seed(spec: RunSpec, worlds: list[str], world: str, draw: int,
     return seeds[draw]
 
 
-def add_outside(run_dir: str | Path, world: str, algo: str, map_yaml: str | Path,
+def draw_log_path(run_dir: Path, run: dict, spec: RunSpec, world: str, log_seed: int) -> Path:
+    """The sensor log the run's `world` rows with `log_seed` ran on: the given file of a run
+    over --logs, else the cached log (bench.cache.log_path, as the runner found it).
+    InputError naming the file when it is not there any more."""
+    from bench import cache
+    if spec.logs:
+        from bench.plan import read_log_set
+        key_of = dict(zip(spec.worlds, run["worlds"]))   # the runner's keys, in its order
+        found = [Path(p) for p, ref, seed, _ in read_log_set(",".join(spec.logs))
+                 if key_of.get(ref) == world and seed == log_seed]
+        if not found:
+            raise InputError(f"{run_dir / RUN_NAME}: spec.logs: no log of {world} with seed "
+                             f"{log_seed} among the run's logs")
+        return found[0]
+    import worlds as worlds_pkg
+    entry = run["worlds"][world]
+    file = str(entry.get("file") or "")
+    w = worlds_pkg.load_world(file or entry.get("name") or world)
+    path = cache.log_path(w, log_seed, spec.noise, Path(file) if file else None)
+    if not path.is_file():
+        raise InputError(f"{path}: missing: the sensor log of {world} log seed {log_seed} "
+                         f"(noise {spec.noise}) is needed to render; it is not in the log cache "
+                         "(another simulator version, another cache folder, or cleared)")
+    return path
+
+
+def render_map(log, times: np.ndarray, poses: np.ndarray, where: str = "trajectory"):
+    """This project's output map of `log`'s scans at the poses of an outside trajectory
+    ((N,) times s, (N, 3) poses), interpolated at each scan's time; scans outside the
+    trajectory's time span are left out. Returns a Grid; InputError (naming `where`) if no
+    scan falls in the span."""
+    from slam.output_map import OutputMapConfig, output_map_from_trajectory
+    from slam.pose import interpolate_poses
+    from slam.replay import scans_of
+    inside = ((log.scan_t >= times[0] - _SPAN_SLACK_S)
+              & (log.scan_t <= times[-1] + _SPAN_SLACK_S))
+    if not inside.any():
+        span = f"{log.scan_t[0]:.3f}..{log.scan_t[-1]:.3f} s" if log.n_scans else "no scans"
+        raise InputError(f"{where}: t: the trajectory's times {times[0]:.3f}..{times[-1]:.3f} s "
+                         f"cover none of the log's scans ({span})")
+    scans = [scan for scan, keep in zip(scans_of(log), inside) if keep]
+    t = log.scan_t[inside]
+    return output_map_from_trajectory(OutputMapConfig(), scans, t,
+                                      interpolate_poses(t, times, poses))
+
+
+def add_outside(run_dir: str | Path, world: str, algo: str, map_yaml: str | Path | None = None,
                 trajectory: str | Path | None = None, draw: int = 0, report: bool = True,
-                figures: bool = True) -> dict:
+                figures: bool = True, render: bool = False) -> dict:
     """Score MAP.yaml (and a TUM trajectory) as `algo` on `world`'s draw `draw` of the run in
-    `run_dir`; store the row in results.json (run.json lists it under `added`), rebuild the
-    report (bench.report.write_report) unless report=False, and return the row.
+    `run_dir`; with render=True (and no map) score instead the map `render_map` builds from
+    the trajectory and the draw's log. Store the row in results.json (run.json lists it under
+    `added`), rebuild the report (bench.report.write_report) unless report=False, and return
+    the row.
 
     InputError when run_dir is not a bench run, world is not one of its worlds, the name is
-    one of its (or this project's) algorithms, the draw does not exist, or a file is bad.
+    one of its (or this project's) algorithms, the draw does not exist, a file is bad, the
+    options do not fit (render with a map, render without a trajectory, neither map nor
+    render) or, to render, the draw's log is not there any more.
     """
     from metrics import read_tum
     from worlds.mapio import read_map
+    if render and map_yaml is not None:
+        raise InputError("--render builds the map from --trajectory: give --map or --render, "
+                         "not both")
+    if render and trajectory is None:
+        raise InputError("--render needs --trajectory T.tum: the poses to build the map at")
+    if not render and map_yaml is None:
+        raise InputError("give --map MAP.yaml, or --trajectory T.tum with --render")
     run_dir = Path(run_dir)
     run = read_run(run_dir)
     if not (run_dir / RESULTS_NAME).is_file():
@@ -112,15 +174,19 @@ def add_outside(run_dir: str | Path, world: str, algo: str, map_yaml: str | Path
 
     t0 = time.perf_counter()
     truth, surfaces = read_truth(run_dir, world)   # surfaces None: a run from before them
-    grid = read_map(map_yaml)
+    grid = None if render else read_map(map_yaml)
     times, poses, gt = np.zeros(0), np.zeros((0, 3)), None
     if trajectory is not None:
         times, poses = read_tum(trajectory)
         gt = _load_npz(run_dir / "maps" / world / f"gt_s{log_seed}.npz",
                        f"true path of {world} log seed {log_seed}", "times", "poses")
+    if render:
+        from sim.log import read_log
+        log_file = draw_log_path(run_dir, run, spec, world, log_seed)
+        grid = render_map(read_log(log_file), times, poses, str(trajectory))
     row = new_row(Task(world, algo, 0, log_seed, 0, draw), spec.noise, spec.vary)
-    row.update(_blank_keys(), slam_seed=None, slam_stats={}, source=SOURCE,
-               map_source=str(Path(map_yaml).resolve()),
+    row.update(_blank_keys(), slam_seed=None, slam_stats={}, source=SOURCE, rendered=render,
+               map_source=None if render else str(Path(map_yaml).resolve()),
                trajectory_source=str(Path(trajectory).resolve()) if gt is not None else None)
     row.update(_score(grid, truth, surfaces))
     if gt is not None:
@@ -141,7 +207,8 @@ def add_outside(run_dir: str | Path, world: str, algo: str, map_yaml: str | Path
         run = read_run(run_dir)
         run.setdefault("added", []).append(
             {"at": row["finished_at"], "world": world, "algo": algo, "repeat": row["repeat"],
-             "draw": draw, "map": row["map_source"], "trajectory": row["trajectory_source"]})
+             "draw": draw, "map": row["map_source"], "trajectory": row["trajectory_source"],
+             "rendered": render})
         atomic_write_text(run_dir / RUN_NAME, json.dumps(jsonable(run), indent=1) + "\n")
         if report:
             from bench.report import write_report

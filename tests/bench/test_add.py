@@ -72,6 +72,7 @@ def test_outside_map_scores_as_the_oracle(run, tmp_path, capsys):
     for key in ("precision", "sensitivity", "precision_t1", "sensitivity_t1", "adnn_cells",
                 "surface_precision", "surface_sensitivity", "surface_f1"):
         assert mine[key] == pytest.approx(oracle[key], abs=1e-12), key
+    assert mine["rendered"] is False
     assert mine["ate_m"] == pytest.approx(0.0, abs=1e-6)
     assert (run / mine["map_file"]).is_file()
 
@@ -98,7 +99,8 @@ def test_outside_map_scores_as_the_oracle(run, tmp_path, capsys):
     assert _table_cells((run / "summary.md").read_text(), "## Table 2:")["oracle_copy P"] == \
         f"{oracle['surface_precision']:.3f} ± 0.000"
     added = json.loads((run / "run.json").read_text())["added"]
-    assert [(a["algo"], a["repeat"]) for a in added] == [("oracle_copy", 0), ("oracle_copy", 1)]
+    assert [(a["algo"], a["repeat"], a["rendered"]) for a in added] == [
+        ("oracle_copy", 0, False), ("oracle_copy", 1, False)]
 
     # the outside rows are not tasks of the run: resuming it finds nothing to do
     assert main(["run", "--resume", str(run), "--jobs", "1", "--no-progress", "--no-figures"]) == 0
@@ -124,7 +126,7 @@ def _err_line(capsys):
     ({"--draw": "1"}, "--draw 1: out of range (tiny has draws 0..0 in this run)"),
     ({"--draw": "-1"}, "--draw: must be an integer >= 0, got '-1'"),
     ({"--trajectory": "BAD_TUM"}, "bad.tum: line 1"),
-    ({"--map": None}, "the following arguments are required: --map"),
+    ({"--map": None}, "give --map MAP.yaml, or --trajectory T.tum with --render"),
 ])
 def test_bad_input_is_one_line_exit_2(run, tmp_path, capsys, change, msg):
     yaml_path, _ = _oracle_files(run, tmp_path)
@@ -187,6 +189,83 @@ def test_trajectory_without_a_true_path_is_refused(run, tmp_path, capsys):
 def _npz(path):
     with np.load(path) as z:
         return {k: z[k] for k in z.files}
+
+
+def test_render_the_oracles_trajectory_gives_the_oracles_map(run, tmp_path, capsys):
+    """The oracle's own poses, given as an outside trajectory and rendered with the output
+    map from the run's log, give the oracle's map and scores: an outside SLAM's poses are
+    compared map for map through the same map building."""
+    _, tum = _oracle_files(run, tmp_path)
+    assert main(["add", str(run), "--world", "tiny", "--algo", "mine", "--trajectory", str(tum),
+                 "--render", "--no-figures"]) == 0
+    assert "tiny/mine/0: precision" in capsys.readouterr().out
+    oracle, mine = _row(run, "oracle"), _row(run, "mine")
+    assert mine["rendered"] is True and mine["source"] == "outside" and mine["map_source"] is None
+    assert mine["trajectory_source"] == str(tum.resolve())
+    ours, theirs = _npz(run / mine["map_file"]), _npz(run / oracle["map_file"])
+    assert mine["map_file"] == "maps/tiny/mine/0.npz"
+    for key in ("prob", "resolution", "origin"):
+        np.testing.assert_array_equal(ours[key], theirs[key], err_msg=key)
+    for key in ("surface_precision", "surface_sensitivity", "precision", "sensitivity",
+                "adnn_cells"):
+        assert mine[key] == oracle[key], key
+    assert mine["ate_m"] == pytest.approx(0.0, abs=1e-6)
+    assert json.loads((run / "run.json").read_text())["added"][-1]["rendered"] is True
+
+    # only the second half of the trajectory: the scans before it are left out
+    times, poses = ours["times"], ours["poses"]
+    half = len(times) // 2
+    write_tum(tmp_path / "half.tum", times[half:], poses[half:])
+    assert main(["add", str(run), "--world", "tiny", "--algo", "mine", "--trajectory",
+                 str(tmp_path / "half.tum"), "--render", "--no-figures"]) == 0
+    part = _npz(run / _row(run, "mine", 1)["map_file"])
+    assert np.isfinite(part["prob"]).sum() < np.isfinite(ours["prob"]).sum()
+
+
+def test_render_over_a_run_of_given_logs(tmp_path, tiny, capsys, monkeypatch):
+    """A run over --logs: the log to render is the given file."""
+    import glob
+    from bench.cache import cache_dir
+    logs = tmp_path / "logs"
+    logs.mkdir()
+    out = tmp_path / "run"
+    assert main(["run", "--world", tiny, "--algo", "oracle", "--repeats", "1", "--jobs", "1",
+                 "--out", str(tmp_path / "rec"), "--no-progress", "--no-figures"]) == 0
+    src = sorted(glob.glob(str(cache_dir() / "tiny-s0-*.npz")))[0]
+    shutil.copy(src, logs / "tiny.npz")
+    assert main(["run", "--logs", str(logs), "--algo", "oracle", "--repeats", "1", "--jobs", "1",
+                 "--out", str(out), "--no-progress", "--no-figures"]) == 0
+    _, tum = _oracle_files(out, tmp_path)
+    monkeypatch.setenv("SLAM_BENCH_CACHE", str(tmp_path / "empty_cache"))  # not the cache's
+    assert main(["add", str(out), "--world", "tiny", "--algo", "mine", "--trajectory", str(tum),
+                 "--render", "--no-figures"]) == 0
+    mine, oracle = _row(out, "mine"), _row(out, "oracle")
+    np.testing.assert_array_equal(_npz(out / mine["map_file"])["prob"],
+                                  _npz(out / oracle["map_file"])["prob"])
+
+
+def test_render_errors_are_one_line(run, tmp_path, capsys, monkeypatch):
+    yaml_path, tum = _oracle_files(run, tmp_path)
+    times = _npz(run / "maps" / "tiny" / "oracle" / "0.npz")["times"]
+    late = tmp_path / "late.tum"
+    late.write_text("".join(f"{1000.0 + t:.6f} 0.5 0.5 0 0 0 0 1\n" for t in times[:3]))
+    base = ["add", str(run), "--world", "tiny", "--algo", "mine", "--no-figures"]
+    before = (run / "results.json").read_bytes()
+    for extra, msg in [
+            (["--render", "--map", str(yaml_path), "--trajectory", str(tum)],
+             "--render builds the map from --trajectory: give --map or --render, not both"),
+            (["--render"], "--render needs --trajectory T.tum"),
+            (["--render", "--trajectory", str(late)],
+             f"{late}: t: the trajectory's times 1000.000..")]:
+        assert main(base + extra) == 2, extra
+        assert msg in _err_line(capsys), extra
+    monkeypatch.setenv("SLAM_BENCH_CACHE", str(tmp_path / "empty_cache"))
+    assert main(base + ["--render", "--trajectory", str(tum)]) == 2
+    line = _err_line(capsys)
+    assert str(tmp_path / "empty_cache") in line
+    assert "missing: the sensor log of tiny log seed 0 (noise realistic) is needed to render" in line
+    assert (run / "results.json").read_bytes() == before
+
 
 def test_a_run_stored_before_the_surfaces_scores_the_cell_form(run, tmp_path, capsys):
     """truth.npz without `surfaces` (a run folder written before them) still loads: the added
