@@ -1,9 +1,9 @@
 """The benchmark loop: worlds -> cached logs -> SLAM tasks in parallel -> rows as they finish.
 
 `run_benchmark(spec, out_dir, ...)` loads and rasterizes each world (truth grid and visible
-surfaces saved under DIR/maps/<world>/truth.npz), records each missing log once (in parallel across worlds and
-seeds), submits a world's SLAM tasks as soon as its log exists, and stores every finished
-row at once (results.json rewritten atomically, map and trajectory in
+surfaces saved under DIR/maps/<world>/truth.npz), records each missing log once (in parallel
+across worlds and seeds), submits a world's SLAM tasks as soon as its log exists, and stores
+every finished row at once (results.json rewritten atomically, map and trajectory in
 DIR/maps/<world>/<algo>/<repeat>.npz). Ctrl-C or a dead worker loses nothing stored;
 `resume=True` runs only the rows missing from results.json, with the seeds of run.json.
 A log that cannot be trusted (sim.recording_problem: the robot got stuck, the time limit
