@@ -1,32 +1,46 @@
-"""The surface form of the grid portion on the oracle's maps: tau, grid offsets, wrong maps.
+"""The output map and the surface form on the oracle's maps: the checks of docs/metrics.md.
 
-    python tools/surface_metric.py [--seeds 0-9] [--draws 3] [--taus 0,0.005,0.01,0.015,0.02]
-                                           [--shifts 0,0.01,0.025,0.04] [--jobs 2] [--out FILE.json]
+    python tools/surface_metric.py [--seeds 0-9] [--shift-seeds 0-2] [--draws 3]
+        [--kinds office,warehouse,hall,loop] [--tau M] [--jobs 2] [--out FILE.json]
+    python tools/surface_metric.py --time [--runs 7]     # output map of swirl_l's log
 
-For every shipped world and the generated worlds of each kind (generator seeds --seeds,
-default size) and each noise draw (log seeds 0 .. draws-1, realistic profile): records the
-log, maps it with the oracle (true poses), aligns as `bench` does and scores
- - the study's exact cell rule (precision, sensitivity at tolerance 0),
- - the surface form at each tau,
- - the surface form of the oracle's map moved by one cell in each of the four directions,
- - with --shifts, the surface form of the oracle on the whole world shifted by a fraction of
-   a cell (draw 0; the log re-recorded in the shifted world).
-Prints markdown tables (per world: mean over draws; min over everything) and writes every
-number to --out.
+Records each world's log (realistic profile, log seeds 0 .. draws-1), maps it with the oracle
+(true poses) and scores it as `bench` does (ICP alignment from identity), at tau = --tau
+(default: metrics.surface.DEFAULT_TAU_M). Worlds: every shipped world and the generated worlds
+of each kind with generator seeds --seeds. Then, on the shipped worlds and the generated seeds
+--shift-seeds, draw 0:
+ - shift: the whole world moved by 0.01, 0.025 and 0.04 m (log re-recorded), oracle re-scored;
+ - moved: the oracle's map moved diagonally by one cell, scored with no alignment;
+ - drift: maps built from the true trajectory plus a smooth drift of 1, 2, 3.5 and 5 cm
+   (mean F1 over three shapes of each);
+and the far-walls world (tests/data/far_walls.yaml: a route 2.5 m from two long walls).
+Prints markdown tables and a PASS / FAIL line per check (the numbers in CHECKS); exits 1 if
+one fails. --out writes every number as JSON.
 """
 from __future__ import annotations
 
 import argparse
 import functools
 import json
-import time
 import sys
+import time
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+SHIFTS = (0.01, 0.025, 0.04)
+DRIFTS = (0.01, 0.02, 0.035, 0.05)
+DRIFT_PHASES = (0.0, 2 * np.pi / 3, 4 * np.pi / 3)   # a drift's score: the mean F1 of three shapes
+OTHER_TAUS = (0.0075, 0.01)     # the oracle's base scores at these too, to compare taus
+FAR_WALLS = ROOT / "tests" / "data" / "far_walls.yaml"
+# the done-when numbers: oracle P and S on every map and on average, the change under a
+# world shift, the one-cell move's mean, the far-walls world's sensitivity and its coverage
+CHECKS = {"oracle_min": 0.95, "oracle_mean": 0.97, "shift_max": 0.02, "moved_mean": 0.25,
+          "far_sensitivity": 0.93, "far_coverage": 0.95}
 
 
 def _seeds(text: str) -> list[int]:
@@ -37,22 +51,20 @@ def _seeds(text: str) -> list[int]:
 
 
 @functools.lru_cache(maxsize=4)
-def _world_data_cached(ref: str) -> str:
-    return json.dumps(_world_data(ref))
-
-
-def _world_data(ref: str) -> dict:
-    """World YAML data of a shipped world name or 'kind:seed'."""
+def _world_json(ref: str) -> str:
+    """World YAML data (as JSON) of a shipped world name, 'kind:seed' or a YAML path."""
     from worlds.generate import generate_world
     from worlds.load import world_dir
     from worlds.yamlio import load_yaml
+    if ref.endswith(".yaml"):
+        return json.dumps(load_yaml(Path(ref)))
     if ":" in ref:
         kind, seed = ref.split(":")
-        return generate_world(kind, int(seed))
-    return load_yaml(world_dir() / f"{ref}.yaml")
+        return json.dumps(generate_world(kind, int(seed)))
+    return json.dumps(load_yaml(world_dir() / f"{ref}.yaml"))
 
 
-def _shifted(data, dx: float, dy: float):
+def shifted(data: dict, dx: float, dy: float) -> dict:
     """The same world data with every coordinate moved by (dx, dy)."""
     def move(v):
         if isinstance(v, list) and len(v) == 2 and all(isinstance(c, (int, float)) for c in v):
@@ -74,140 +86,192 @@ def _shifted(data, dx: float, dy: float):
     return out
 
 
-def _oracle_scores(data: dict, log_seed: int, taus: list[float], moves: bool) -> dict:
+def smooth_drift(times: np.ndarray, amplitude: float, phase: float = 0.0) -> np.ndarray:
+    """(N, 2) m: a drift that wanders smoothly over the log (one slow period in x, a phase-
+    shifted one in y, starting at `phase` rad) with components of `amplitude` m at most; its
+    mean over the log is near zero, so the alignment cannot take it out."""
+    u = 2 * np.pi * (times - times[0]) / max(times[-1] - times[0], 1e-9) + phase
+    return amplitude * np.stack([np.sin(u), np.sin(u + 2.0)], axis=1)
+
+
+def _bench_score(grid, world, truth, tau):
+    """(surface P, S, study cell P, S) as bench scores a simulated world's map."""
     import metrics
-    import sim
     from metrics.surface import classify_surface, visible_surfaces
-    from slam.replay import run_algorithm
-    from worlds import rasterize
-    from worlds.grid import Grid
-    from worlds.load import world_from_dict
-    world = world_from_dict(data, where=data.get("name", "world"))
-    log = sim.record(world, seed=log_seed, noise="realistic")
-    result = run_algorithm("oracle", log, seed=0)
-    truth = rasterize(world)
-    s = metrics.score_map(result.grid, truth, align="auto", initial=(0.0, 0.0, 0.0), gtfree=False)
+    s = metrics.score_map(grid, truth, align="auto", initial=(0.0, 0.0, 0.0), gtfree=False)
     pose = np.array([s["align"]["x"], s["align"]["y"], s["align"]["yaw"]])
-    segs = visible_surfaces(world)
-    out = {"cell_p": s["precision"], "cell_s": s["sensitivity"],
-           "coverage": log.meta["wall_coverage"], "ending": log.meta["ending"]}
-    for tau in taus:
-        c = classify_surface(result.grid, segs, pose, tau).counts
-        out[f"p_{tau:g}"] = c["surface_precision"]
-        out[f"s_{tau:g}"] = c["surface_sensitivity"]
-    perfect = classify_surface(truth, segs, (0.0, 0.0, 0.0), taus[len(taus) // 2]).counts
-    out["truth_p"], out["truth_s"] = perfect["surface_precision"], perfect["surface_sensitivity"]
-    if moves:
-        g = result.grid
-        for name, (dc, dr) in {"+x": (1, 0), "-x": (-1, 0), "+y": (0, 1), "-y": (0, -1)}.items():
-            moved = Grid(g.prob, g.resolution, g.origin + [dc * g.resolution, dr * g.resolution, 0.0])
-            for tau in taus:
-                c = classify_surface(moved, segs, pose, tau).counts
-                out[f"moved{name}_p_{tau:g}"] = c["surface_precision"]
-                out[f"moved{name}_s_{tau:g}"] = c["surface_sensitivity"]
-    return out
+    c = classify_surface(grid, visible_surfaces(world), pose, tau).portion
+    return c.surface_precision, c.surface_sensitivity, s["precision"], s["sensitivity"]
 
 
 def _job(args):
-    ref, log_seed, shift, taus = args
-    data = json.loads(_world_data_cached(ref))   # a fresh copy: generating an office takes 10 s
-    if shift:
-        data = _shifted(data, shift, shift)
-    name = data.get("name", ref)
-    return {"world": name, "ref": ref, "draw": log_seed, "shift": shift,
-            **_oracle_scores(data, log_seed, taus, moves=shift == 0.0)}
-
-
-def _time_surface_form() -> int:
-    """Median wall time of classify_surface on the true map of a 10 m x 10 m office."""
+    """One world and draw: the oracle's scores; with extras, the moved map and the drifts."""
+    ref, log_seed, shift, tau, extras = args
+    import sim
     from metrics.surface import classify_surface, visible_surfaces
+    from slam.output_map import OutputMapConfig, output_map_from_trajectory
+    from slam.replay import run_algorithm, scans_of
     from worlds import rasterize
-    from worlds.generate import generate_world
+    from worlds.grid import Grid
     from worlds.load import world_from_dict
-    world = world_from_dict(generate_world("office", 0, (10.0, 10.0)), where="office 10x10")
+    data = json.loads(_world_json(ref))
+    if shift:
+        data = shifted(data, shift, shift)
+    world = world_from_dict(data, where=str(data.get("name", ref)))
+    log = sim.record(world, seed=log_seed, noise="realistic")
+    oracle = run_algorithm("oracle", log, seed=0)
     truth = rasterize(world)
-    segs = visible_surfaces(world)
-    classify_surface(truth, segs, (0.0, 0.0, 0.0))           # compile or load the kernel
+    p, s, cp, cs = _bench_score(oracle.grid, world, truth, tau)
+    row = {"world": world.name, "ref": ref, "draw": log_seed, "shift": shift, "p": p, "s": s,
+           "cell_p": cp, "cell_s": cs, "coverage": log.meta.get("wall_coverage")}
+    for other in OTHER_TAUS:
+        row[f"p_{other:g}"], row[f"s_{other:g}"], _, _ = _bench_score(oracle.grid, world, truth, other)
+    if extras:
+        g = oracle.grid
+        moved = Grid(g.prob, g.resolution, g.origin + [g.resolution, g.resolution, 0.0])
+        c = classify_surface(moved, visible_surfaces(world), (0.0, 0.0, 0.0), tau).portion
+        row["moved_p"], row["moved_s"] = c.surface_precision, c.surface_sensitivity
+        scans = scans_of(log)
+        for amp in DRIFTS:
+            f1 = []
+            for phase in DRIFT_PHASES:
+                poses = oracle.poses.copy()
+                poses[:, :2] += smooth_drift(oracle.times, amp, phase)
+                grid = output_map_from_trajectory(OutputMapConfig(), scans, oracle.times, poses)
+                f1.append(_f1(*_bench_score(grid, world, truth, tau)[:2]))
+            row[f"drift_{amp:g}"] = float(np.mean(f1))
+    return row
+
+
+def checks(rows: list[dict]) -> list[tuple[str, bool, str]]:
+    """(name, passed, numbers) of each done-when check the rows cover."""
+    out = []
+    base = [r for r in rows if r["shift"] == 0.0 and r["ref"] != str(FAR_WALLS)]
+    if base:
+        worst = min(min(r["p"], r["s"]) for r in base)
+        mean_p, mean_s = np.mean([r["p"] for r in base]), np.mean([r["s"] for r in base])
+        out.append(("oracle P and S on every map", worst >= CHECKS["oracle_min"],
+                    f"min {worst:.3f} over {len(base)} maps (>= {CHECKS['oracle_min']})"))
+        out.append(("oracle P and S on average", min(mean_p, mean_s) >= CHECKS["oracle_mean"],
+                    f"P {mean_p:.3f}, S {mean_s:.3f} (>= {CHECKS['oracle_mean']})"))
+    shifted_rows = [r for r in rows if r["shift"]]
+    if shifted_rows:
+        ref0 = {(r["ref"], r["draw"]): r for r in base}
+        change = max(max(abs(r["p"] - ref0[(r["ref"], 0)]["p"]), abs(r["s"] - ref0[(r["ref"], 0)]["s"]))
+                     for r in shifted_rows)
+        out.append(("world shift moves P and S", change <= CHECKS["shift_max"],
+                    f"largest change {change:.4f} (<= {CHECKS['shift_max']})"))
+    extra = [r for r in base if "moved_p" in r]
+    if extra:
+        mp, ms = np.mean([r["moved_p"] for r in extra]), np.mean([r["moved_s"] for r in extra])
+        out.append(("map moved one cell diagonally, no alignment", max(mp, ms) <= CHECKS["moved_mean"],
+                    f"mean P {mp:.3f}, S {ms:.3f} over {len(extra)} maps (<= {CHECKS['moved_mean']})"))
+        bad = []
+        for r in extra:
+            f1 = [_f1(r["p"], r["s"])] + [r[f"drift_{a:g}"] for a in DRIFTS]
+            if not all(b < a for a, b in zip(f1, f1[1:])):
+                bad.append(r["world"])
+        out.append(("drift scores lower at each step (F1)", not bad,
+                    f"{len(extra) - len(bad)}/{len(extra)} worlds monotone" + (f"; not: {bad}" if bad else "")))
+    far = [r for r in rows if r["ref"] == str(FAR_WALLS)]
+    if far:
+        cov, s = min(r["coverage"] for r in far), min(r["s"] for r in far)
+        out.append(("far walls: coverage check passes", cov >= CHECKS["far_coverage"],
+                    f"coverage {cov:.3f} (>= {CHECKS['far_coverage']})"))
+        out.append(("far walls: oracle sensitivity", s >= CHECKS["far_sensitivity"],
+                    f"S {s:.3f} (>= {CHECKS['far_sensitivity']})"))
+    return out
+
+
+def _f1(p, s):
+    return 2 * p * s / (p + s) if p + s > 0 else 0.0
+
+
+def run(refs, shift_refs, draws, tau, jobs=2):
+    """Every row: refs x draws, the shifts and extras of shift_refs, the far-walls world."""
+    tasks = [(r, d, 0.0, tau, r in shift_refs and d == 0) for r in refs for d in range(draws)]
+    tasks += [(r, 0, sh, tau, False) for r in shift_refs for sh in SHIFTS]
+    tasks += [(str(FAR_WALLS), d, 0.0, tau, False) for d in range(draws)]
+    if jobs <= 1:
+        return [_job(t) for t in tasks]
+    with ProcessPoolExecutor(jobs) as ex:
+        return list(ex.map(_job, tasks))
+
+
+def print_tables(rows, tau):
+    base = [r for r in rows if r["shift"] == 0.0]
+    print(f"| world | maps | surface P (tau {tau:g} m) | surface S | study's cell P | cell S |")
+    print("|---|---|---|---|---|---|")
+    for ref in dict.fromkeys(r["ref"] for r in base):
+        rs = [r for r in base if r["ref"] == ref]
+        cells = [f"{np.mean([r[k] for r in rs]):.3f} ± {np.std([r[k] for r in rs]):.3f}"
+                 for k in ("p", "s", "cell_p", "cell_s")]
+        print(f"| {rs[0]['world']} | {len(rs)} | " + " | ".join(cells) + " |")
+    extra = [r for r in base if "moved_p" in r]
+    if extra:
+        print("\n| world | shift 0.01 / 0.025 / 0.04 m: P, S | moved one cell: P / S | "
+              "drift 0 / 1 / 2 / 3.5 / 5 cm: F1 (mean of 3 shapes) |")
+        print("|---|---|---|---|")
+        for r in extra:
+            sh = [x for x in rows if x["ref"] == r["ref"] and x["shift"]]
+            shs = ", ".join(f"{x['p']:.3f} {x['s']:.3f}" for x in sorted(sh, key=lambda x: x["shift"]))
+            f1 = [_f1(r["p"], r["s"])] + [r[f"drift_{a:g}"] for a in DRIFTS]
+            print(f"| {r['world']} | {shs} | {r['moved_p']:.3f} / {r['moved_s']:.3f} | "
+                  + " / ".join(f"{v:.3f}" for v in f1) + " |")
+    print()
+    ok = True
+    for name, passed, detail in checks(rows):
+        ok &= passed
+        print(f"{'PASS' if passed else 'FAIL'}: {name}: {detail}")
+    return ok
+
+
+def time_output_map(runs: int) -> int:
+    """Median wall time of building the output map of swirl_l's log (seed 0) from its true
+    trajectory, the kernels compiled first."""
+    import sim
+    import worlds
+    from slam.output_map import OutputMapConfig, output_map_from_trajectory
+    from slam.replay import run_algorithm, scans_of
+    log = sim.record(worlds.load_world("swirl_l"), seed=0, noise="realistic")
+    oracle = run_algorithm("oracle", log)
+    scans = scans_of(log)
     times = []
-    for _ in range(7):
+    for _ in range(runs):
         t0 = time.perf_counter()
-        c = classify_surface(truth, segs, (0.01, -0.02, 0.003))
+        grid = output_map_from_trajectory(OutputMapConfig(), scans, oracle.times, oracle.poses)
         times.append(time.perf_counter() - t0)
-    print(f"{world.name}: {truth.rows} x {truth.cols} cells, {len(segs)} surface segments, "
-          f"{c.counts['surface_tp'] + c.counts['surface_fp']} occupied cells: surface form "
-          f"median {1000 * np.median(times):.1f} ms (min {1000 * min(times):.1f}, "
-          f"max {1000 * max(times):.1f}) over {len(times)} runs")
+    print(f"swirl_l: {log.n_scans} scans ({log.duration:.0f} s of log), map {grid.rows} x "
+          f"{grid.cols} cells: output map median {np.median(times):.3f} s (min {min(times):.3f}, "
+          f"max {max(times):.3f}) over {runs} runs")
     return 0
 
 
 def main(argv=None) -> int:
+    from metrics.surface import DEFAULT_TAU_M
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", default="0-9")
+    ap.add_argument("--shift-seeds", default="0-2")
     ap.add_argument("--kinds", default="office,warehouse,hall,loop")
     ap.add_argument("--draws", type=int, default=3)
-    ap.add_argument("--taus", default="0,0.005,0.01,0.015,0.02")
-    ap.add_argument("--shifts", default="")
+    ap.add_argument("--tau", type=float, default=DEFAULT_TAU_M)
     ap.add_argument("--no-shipped", action="store_true")
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--out", default=None)
-    ap.add_argument("--time", action="store_true",
-                    help="only time the surface form on a 10 m x 10 m office's true map")
+    ap.add_argument("--time", action="store_true", help="only time the output map of swirl_l")
+    ap.add_argument("--runs", type=int, default=7)
     args = ap.parse_args(argv)
     if args.time:
-        return _time_surface_form()
+        return time_output_map(args.runs)
     import worlds
-    taus = [float(t) for t in args.taus.split(",")]
-    refs = [] if args.no_shipped else list(worlds.list_worlds())
-    refs += [f"{k}:{s}" for k in args.kinds.split(",") if k for s in _seeds(args.seeds)]
-    shifts = [float(v) for v in args.shifts.split(",") if v]
-    # a world's jobs side by side: each worker generates it once (lru_cache)
-    jobs = [job for r in refs for job in [(r, d, 0.0, taus) for d in range(args.draws)]
-            + [(r, 0, sh, taus) for sh in shifts if sh]]
-    with ProcessPoolExecutor(args.jobs) as ex:
-        rows = list(ex.map(_job, jobs))
+    shipped = [] if args.no_shipped else list(worlds.list_worlds())
+    kinds = [k for k in args.kinds.split(",") if k]
+    refs = shipped + [f"{k}:{s}" for k in kinds for s in _seeds(args.seeds)]
+    shift_refs = shipped + [f"{k}:{s}" for k in kinds for s in _seeds(args.shift_seeds)]
+    rows = run(refs, shift_refs, args.draws, args.tau, args.jobs)
     if args.out:
         Path(args.out).write_text(json.dumps(rows, indent=1))
-    base = [r for r in rows if r["shift"] == 0.0]
-    print("| world | cell P | cell S | " + " | ".join(f"surface P/S tau {t:g}" for t in taus)
-          + " | moved one cell P/S (tau " + f"{taus[len(taus) // 2]:g}) |")
-    print("|---" * (4 + len(taus)) + "|")
-    mid = f"{taus[len(taus) // 2]:g}"
-    for ref in refs:
-        rs = [r for r in base if r["ref"] == ref]
-        cells = [f"{np.mean([r['cell_p'] for r in rs]):.3f}", f"{np.mean([r['cell_s'] for r in rs]):.3f}"]
-        for t in taus:
-            cells.append(f"{np.mean([r[f'p_{t:g}'] for r in rs]):.3f} / {np.mean([r[f's_{t:g}'] for r in rs]):.3f}")
-        mp = np.mean([r[f"moved{d}_p_{mid}"] for r in rs for d in ("+x", "-x", "+y", "-y")])
-        ms = np.mean([r[f"moved{d}_s_{mid}"] for r in rs for d in ("+x", "-x", "+y", "-y")])
-        cells.append(f"{mp:.3f} / {ms:.3f}")
-        print(f"| {rs[0]['world']} | " + " | ".join(cells) + " |")
-    print()
-    print("| tau (m) | min oracle P | min oracle S | logs with P or S < 0.95 | mean moved P | "
-          "mean moved S | perfect map P / S (min) |")
-    print("|---|---|---|---|---|---|---|")
-    for t in taus:
-        p = [r[f"p_{t:g}"] for r in base]
-        s = [r[f"s_{t:g}"] for r in base]
-        bad = sum(1 for a, b in zip(p, s) if min(a, b) < 0.95)
-        mp = np.mean([r[f"moved{d}_p_{t:g}"] for r in base for d in ("+x", "-x", "+y", "-y")])
-        ms = np.mean([r[f"moved{d}_s_{t:g}"] for r in base for d in ("+x", "-x", "+y", "-y")])
-        print(f"| {t:g} | {min(p):.3f} | {min(s):.3f} | {bad}/{len(base)} | {mp:.3f} | {ms:.3f} | "
-              f"{min(r['truth_p'] for r in base):.3f} / {min(r['truth_s'] for r in base):.3f} |")
-    if shifts:
-        print()
-        print("| world | " + " | ".join(f"shift {v:g} m P / S (tau {mid})" for v in [0.0] + shifts)
-              + " | largest change |")
-        print("|---" * (len(shifts) + 3) + "|")
-        worst = 0.0
-        for ref in refs:
-            rs = {r["shift"]: r for r in rows if r["ref"] == ref and r["draw"] == 0}
-            vals = [(rs[v][f"p_{mid}"], rs[v][f"s_{mid}"]) for v in [0.0] + shifts]
-            change = max(max(abs(a - vals[0][0]), abs(b - vals[0][1])) for a, b in vals)
-            worst = max(worst, change)
-            print(f"| {rs[0.0]['world']} | " + " | ".join(f"{a:.3f} / {b:.3f}" for a, b in vals)
-                  + f" | {change:.3f} |")
-        print(f"\nlargest change over all worlds: {worst:.4f}")
-    return 0
+    return 0 if print_tables(rows, args.tau) else 1
 
 
 if __name__ == "__main__":

@@ -170,6 +170,33 @@ def _sector_of(nx, ny, nsec):
 
 
 @njit(cache=True, nogil=True)
+def _line_through(px, py, w, i, lo, hi, gate, out):
+    """Weighted line through the hits lo..hi-1 within `gate` of hit i: out = (normal x,
+    normal y, spread across the line); False with fewer than 3 such hits."""
+    sw = sx = sy = sxx = sxy = syy = 0.0
+    k = 0
+    for j in range(lo, hi):
+        dx, dy = px[j] - px[i], py[j] - py[i]
+        if dx * dx + dy * dy <= gate * gate:
+            sw += w[j]
+            sx += w[j] * dx
+            sy += w[j] * dy
+            sxx += w[j] * dx * dx
+            sxy += w[j] * dx * dy
+            syy += w[j] * dy * dy
+            k += 1
+    if k < 3:
+        return False
+    mx, my = sx / sw, sy / sw
+    a, b, d = sxx / sw - mx * mx, sxy / sw - mx * my, syy / sw - my * my
+    theta = 0.5 * math.atan2(2.0 * b, a - d)
+    out[0] = -math.sin(theta)
+    out[1] = math.cos(theta)
+    out[2] = 0.5 * (a + d) - math.sqrt(0.25 * (a - d) * (a - d) + b * b)   # spread across it
+    return True
+
+
+@njit(cache=True, nogil=True)
 def hit_normals(px, py, w, starts, neighbours, gate, ox, oy):
     """(N,) sector of each hit's normal, oriented towards its ray's origin (ox, oy) (N,): the
     weighted line through the hit and its `neighbours` beams on each side in the same scan
@@ -177,31 +204,17 @@ def hit_normals(px, py, w, starts, neighbours, gate, ox, oy):
     starts: (S + 1,) each scan's first hit."""
     n = px.shape[0]
     out = np.zeros(n, dtype=np.int64)
+    fit = np.empty(3)
     for s in range(starts.shape[0] - 1):
         lo, hi = starts[s], starts[s + 1]
         for i in range(lo, hi):
             nx, ny = ox[i] - px[i], oy[i] - py[i]
-            sw = sx = sy = sxx = sxy = syy = 0.0
-            k = 0
-            for j in range(max(lo, i - neighbours), min(hi, i + neighbours + 1)):
-                dx, dy = px[j] - px[i], py[j] - py[i]
-                if dx * dx + dy * dy <= gate * gate:
-                    sw += w[j]
-                    sx += w[j] * dx
-                    sy += w[j] * dy
-                    sxx += w[j] * dx * dx
-                    sxy += w[j] * dx * dy
-                    syy += w[j] * dy * dy
-                    k += 1
-            if k >= 3:
-                mx, my = sx / sw, sy / sw
-                theta = 0.5 * math.atan2(2.0 * (sxy / sw - mx * my),
-                                         (sxx / sw - mx * mx) - (syy / sw - my * my))
-                fx, fy = -math.sin(theta), math.cos(theta)
-                if fx * nx + fy * ny < 0.0:
-                    nx, ny = -fx, -fy
+            if _line_through(px, py, w, i, max(lo, i - neighbours), min(hi, i + neighbours + 1),
+                             gate, fit):
+                if fit[0] * nx + fit[1] * ny < 0.0:
+                    nx, ny = -fit[0], -fit[1]
                 else:
-                    nx, ny = fx, fy
+                    nx, ny = fit[0], fit[1]
             out[i] = _sector_of(nx, ny, SECTORS)
     return out
 

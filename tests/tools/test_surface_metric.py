@@ -1,0 +1,45 @@
+"""tools/surface_metric.py on a small set (two generated worlds of two kinds, one draw): the
+same checks the full run makes (docs/metrics.md), and the drift it draws."""
+import importlib.util
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+_spec = importlib.util.spec_from_file_location("surface_metric", ROOT / "tools" / "surface_metric.py")
+sm = importlib.util.module_from_spec(_spec)
+sys.modules[_spec.name] = sm
+_spec.loader.exec_module(sm)
+
+
+def test_drift_is_smooth_bounded_and_centred():
+    t = np.linspace(0.0, 100.0, 501)
+    d = sm.smooth_drift(t, 0.02, phase=1.0)
+    assert np.abs(d).max() <= 0.02 + 1e-12 and np.abs(d).max() > 0.019
+    assert np.abs(d.mean(axis=0)).max() < 1e-3
+    assert np.abs(np.diff(d, axis=0)).max() < 0.02 * 2 * np.pi / 500 + 1e-9
+
+
+def test_checks_fail_on_bad_numbers():
+    row = {"ref": "office:0", "world": "office_s0", "draw": 0, "shift": 0.0, "p": 0.99,
+           "s": 0.94, "moved_p": 0.3, "moved_s": 0.1,
+           **{f"drift_{a:g}": v for a, v in zip(sm.DRIFTS, (0.9, 0.95, 0.8, 0.7))}}
+    shifted = {**row, "shift": 0.01, "p": 0.96}
+    result = {name: ok for name, ok, _ in sm.checks([row, shifted])}
+    assert result == {"oracle P and S on every map": False, "oracle P and S on average": False,
+                      "world shift moves P and S": False,
+                      "map moved one cell diagonally, no alignment": False,
+                      "drift scores lower at each step (F1)": False}
+
+
+@pytest.mark.slow
+def test_small_run_passes_every_check(capsys):
+    from metrics.surface import DEFAULT_TAU_M
+    refs = ["office:0", "loop:0"]
+    rows = sm.run(refs, refs, draws=1, tau=DEFAULT_TAU_M, jobs=1)
+    results = sm.checks(rows)
+    assert len(results) == 7
+    failed = [(name, detail) for name, ok, detail in results if not ok]
+    assert not failed, failed
