@@ -85,7 +85,7 @@ def main_key(key: str, world: str, surface: set[str]) -> str:
 
 
 def _tau_text(rows: list[dict]) -> str:
-    """"tau = 0.02 m": the surface form's tolerance in the rows (several if they differ;
+    """"tau = 0.005 m": the surface form's tolerance in the rows (several if they differ;
     metrics.surface.DEFAULT_TAU_M if no row has one)."""
     taus = sorted({float(r["surface_tau_m"]) for r in rows
                    if r.get("status") == "ok" and r.get("surface_tau_m") is not None})
@@ -96,7 +96,7 @@ def _tau_text(rows: list[dict]) -> str:
 
 
 def surface_label(rows: list[dict]) -> str:
-    """"surface, tau = 0.02 m": the surface form and the tau of the rows."""
+    """"surface, tau = 0.005 m": the surface form and the tau of the rows."""
     return f"surface, {_tau_text(rows)}"
 
 

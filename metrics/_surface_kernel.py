@@ -91,8 +91,36 @@ def _room_for(buf, n):
     if n < buf.shape[0]:
         return buf
     bigger = np.empty((2 * n, buf.shape[1]))
-    bigger[:n] = buf
+    for i in range(n):          # element copies: a slice assignment compiles numba's error
+        for j in range(buf.shape[1]):   # formatting, seconds of every cold start
+            bigger[i, j] = buf[i, j]
     return bigger
+
+
+@njit(cache=True, nogil=True)
+def _sift(buf, root, end):
+    """Heap sort's sift-down of row `root` in buf[:end] by column 0."""
+    while 2 * root + 1 < end:
+        child = 2 * root + 1
+        if child + 1 < end and buf[child + 1, 0] > buf[child, 0]:
+            child += 1
+        if buf[root, 0] >= buf[child, 0]:
+            return
+        for j in range(buf.shape[1]):
+            buf[root, j], buf[child, j] = buf[child, j], buf[root, j]
+        root = child
+
+
+@njit(cache=True, nogil=True)
+def _sort_rows(buf, m):
+    """Sort buf[:m] in place by column 0 (heap sort: numba's np.argsort compiles a quicksort,
+    about two seconds of every cold start)."""
+    for root in range(m // 2 - 1, -1, -1):
+        _sift(buf, root, m)
+    for end in range(m - 1, 0, -1):
+        for j in range(buf.shape[1]):
+            buf[0, j], buf[end, j] = buf[end, j], buf[0, j]
+        _sift(buf, 0, end)
 
 
 @njit(cache=True, nogil=True)
@@ -133,12 +161,12 @@ def surface_match(segments, occupied, d):
                 m += 1
         if m == 0:
             continue
-        order = np.argsort(buf[:m, 0])
-        cur_lo = buf[order[0], 0]
-        cur_hi = buf[order[0], 1]
+        _sort_rows(buf, m)
+        cur_lo = buf[0, 0]
+        cur_hi = buf[0, 1]
         for k in range(1, m + 1):
-            if k < m and buf[order[k], 0] <= cur_hi:
-                cur_hi = max(cur_hi, buf[order[k], 1])
+            if k < m and buf[k, 0] <= cur_hi:
+                cur_hi = max(cur_hi, buf[k, 1])
                 continue
             out = _room_for(out, n)       # close the merged interval [cur_lo, cur_hi]
             out[n, 0] = s
@@ -146,8 +174,8 @@ def surface_match(segments, occupied, d):
             out[n, 2] = cur_hi
             n += 1
             if k < m:
-                cur_lo = buf[order[k], 0]
-                cur_hi = buf[order[k], 1]
+                cur_lo = buf[k, 0]
+                cur_hi = buf[k, 1]
     return tp, out[:n].copy()
 
 

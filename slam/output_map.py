@@ -31,7 +31,6 @@ from worlds.limits import check_grid_cells
 from slam._kernels import surface_map as K
 from slam.base import Scan
 from slam.occupancy import GridConfig, logodds
-from slam.pose import transform_points
 from slam.preprocess import PreprocessConfig, preprocess, twist_from_poses
 from slam.range_noise import RangeNoise
 
@@ -101,10 +100,10 @@ class OutputMap:
     def __init__(self, cfg: OutputMapConfig, center=(0.0, 0.0)):
         self.cfg = cfg
         self.center = tuple(float(v) for v in center[:2])
-        self._origins: list[np.ndarray] = []    # (2,) world lidar position per scan
-        self._hits: list[np.ndarray] = []       # (N, 2) world hit points per scan
-        self._ranges: list[np.ndarray] = []     # (N,) m
-        self._misses: list[np.ndarray] = []     # (M, 2) world free-range points per scan
+        self._poses: list[np.ndarray] = []      # (3,) robot pose per scan
+        self._lidar: list[np.ndarray] = []      # (2,) lidar position in the robot frame per scan
+        self._hits: list[np.ndarray] = []       # (N, 2) hit points per scan, robot frame
+        self._misses: list[np.ndarray] = []     # (M, 2) free-range points per scan, robot frame
         self._noise: RangeNoise | None = cfg.range_noise
         self.scans = 0
 
@@ -113,19 +112,39 @@ class OutputMap:
         if self._noise is None:
             self._noise = scan.range_noise
         pts = preprocess(scan, self.cfg.preprocess, twist)
-        pose = np.asarray(pose, dtype=np.float64)
-        self._origins.append(transform_points(pose, pts.origin[None, :])[0])
-        self._ranges.append(np.hypot(pts.points[:, 0] - pts.origin[0],
-                                     pts.points[:, 1] - pts.origin[1]))
-        self._hits.append(transform_points(pose, pts.points))
-        self._misses.append(transform_points(pose, pts.misses))
+        self._poses.append(np.asarray(pose, dtype=np.float64).reshape(3))
+        self._lidar.append(pts.origin)
+        self._hits.append(pts.points)
+        self._misses.append(pts.misses)
         self.scans += 1
 
     def to_grid(self) -> Grid:
         """The map as a Grid (probabilities, NaN unknown) covering the observed cells."""
         noise = self._noise if self._noise is not None else RangeNoise()
-        return build_output_map(self.cfg, noise, self._origins, self._hits, self._ranges,
-                                self._misses, self.center)
+        poses = np.array(self._poses, dtype=np.float64).reshape(-1, 3)
+        lidar = np.array(self._lidar, dtype=np.float64).reshape(-1, 2)
+        hits, hit_scan = _stacked(self._hits)
+        misses, miss_scan = _stacked(self._misses)
+        ranges = np.hypot(*(hits - lidar[hit_scan]).T)
+        return build_output_map(self.cfg, noise, _to_world(poses, lidar, np.arange(len(poses))),
+                                _to_world(poses, hits, hit_scan), ranges, hit_scan,
+                                _to_world(poses, misses, miss_scan), miss_scan, self.center)
+
+
+def _stacked(per_scan: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+    """(K, 2) the points of every scan, (K,) the index of the scan of each."""
+    counts = np.array([len(p) for p in per_scan], dtype=np.int64)
+    if not counts.sum():
+        return np.zeros((0, 2)), np.zeros(0, dtype=np.int64)
+    return np.concatenate(per_scan).reshape(-1, 2), np.repeat(np.arange(len(per_scan)), counts)
+
+
+def _to_world(poses: np.ndarray, xy: np.ndarray, scan: np.ndarray) -> np.ndarray:
+    """(K, 2) points xy (K, 2) of robot frames poses[scan] in the world frame."""
+    p = poses[scan]
+    c, s = np.cos(p[:, 2]), np.sin(p[:, 2])
+    return np.stack([p[:, 0] + c * xy[:, 0] - s * xy[:, 1], p[:, 1] + s * xy[:, 0] + c * xy[:, 1]],
+                    axis=1)
 
 
 def _lattice(res: float, points: list[np.ndarray], center) -> tuple[float, float, int, int]:
@@ -142,51 +161,44 @@ def _lattice(res: float, points: list[np.ndarray], center) -> tuple[float, float
     return float(lo[0] * res), float(lo[1] * res), rows, cols
 
 
-def build_output_map(cfg: OutputMapConfig, noise: RangeNoise, origins, hits, ranges, misses,
-                     center=(0.0, 0.0)) -> Grid:
-    """The output map of scans given per scan as world lidar origin (2,), hit points (N, 2) m,
-    their ranges (N,) m and free-range points of no-return beams (M, 2) m (lists of equal
-    length), read with the range noise model `noise`."""
+def build_output_map(cfg: OutputMapConfig, noise: RangeNoise, origins, hits, ranges, hit_scan,
+                     misses, miss_scan, center=(0.0, 0.0)) -> Grid:
+    """The output map of S scans: world lidar positions origins (S, 2) m, hit points (N, 2) m
+    with their ranges (N,) m and scan indices hit_scan (N,) (non-decreasing), free-range points
+    of no-return beams (M, 2) m with scan indices miss_scan (M,), read with the range noise
+    model `noise`."""
     res, sc = cfg.grid.resolution, cfg.surface
-    ox, oy, rows, cols = _lattice(res, list(origins) + list(hits) + list(misses), center)
+    ox, oy, rows, cols = _lattice(res, [origins, hits, misses], center)
     n_scans = len(origins)
-    counts = np.array([len(h) for h in hits], dtype=np.int64)
-    starts = np.zeros(n_scans + 1, dtype=np.int64)
-    np.cumsum(counts, out=starts[1:])
-    cat = (lambda a, k: np.ascontiguousarray(np.concatenate(a) if len(a) else np.zeros((0,) + k)))
-    p = cat([h.reshape(-1, 2) for h in hits], (2,))
-    r = cat([np.asarray(v, dtype=np.float64) for v in ranges], ())
-    o = (np.asarray(origins, dtype=np.float64).reshape(-1, 2) - [ox, oy]) / res
-    px, py = (p[:, 0] - ox) / res, (p[:, 1] - oy) / res
-    per_hit = np.repeat(np.arange(n_scans), counts)
-    hox, hoy = np.ascontiguousarray(o[per_hit, 0]), np.ascontiguousarray(o[per_hit, 1])
+    starts = np.searchsorted(hit_scan, np.arange(n_scans + 1)).astype(np.int64)
+    o = np.ascontiguousarray((np.asarray(origins, dtype=np.float64).reshape(-1, 2) - [ox, oy]) / res)
+    px = np.ascontiguousarray((hits[:, 0] - ox) / res)
+    py = np.ascontiguousarray((hits[:, 1] - oy) / res)
 
-    sigma = K.hit_sigmas(r, starts, int(sc.neighbours), float(sc.neighbour_jump), noise.as_array())
+    sigma = K.hit_sigmas(np.ascontiguousarray(ranges, dtype=np.float64), starts,
+                         int(sc.neighbours), float(sc.neighbour_jump), noise.as_array())
     w = 1.0 / (sigma * sigma)
-    sector = K.hit_normals(px, py, w, starts, int(sc.normal_beams), sc.normal_gate / res, hox, hoy)
-    wide = K.project_hits(px, py, px, py, w, sector, int(sc.wide_spread), rows, cols, int(sc.wide_radius),
-                          int(sc.iterations))
+    sector = K.hit_normals(px, py, w, starts, int(sc.normal_beams), sc.normal_gate / res,
+                           np.ascontiguousarray(o[hit_scan, 0]), np.ascontiguousarray(o[hit_scan, 1]))
+    wide = K.project_hits(px, py, px, py, w, sector, int(sc.wide_spread), rows, cols,
+                          int(sc.wide_radius), int(sc.iterations))
     wx, wy = np.ascontiguousarray(wide[:, 0]), np.ascontiguousarray(wide[:, 1])
-    fine = K.project_hits(wx, wy, wx, wy, w, sector, int(sc.fine_spread), rows, cols, int(sc.fine_radius),
-                          int(sc.iterations))
+    fine = K.project_hits(wx, wy, wx, wy, w, sector, int(sc.fine_spread), rows, cols,
+                          int(sc.fine_radius), int(sc.iterations))
     surface, _ = K.mark_surface(np.ascontiguousarray(fine[:, 0]), np.ascontiguousarray(fine[:, 1]),
                                 w, rows, cols, int(sc.min_hits), float(sc.peak_share))
 
-    # free space: hit rays stop free_margin_sigmas short; miss rays run to their end
-    m = [np.asarray(v, dtype=np.float64).reshape(-1, 2) for v in misses]
-    m_counts = np.array([len(v) for v in m], dtype=np.int64)
-    ray_starts = np.zeros(n_scans + 1, dtype=np.int64)
-    np.cumsum(counts + m_counts, out=ray_starts[1:])
-    ends = np.zeros((int(ray_starts[-1]), 2))
-    margin = np.zeros(int(ray_starts[-1]))
-    for s in range(n_scans):
-        a = ray_starts[s]
-        ends[a:a + counts[s]] = p[starts[s]:starts[s + 1]]
-        margin[a:a + counts[s]] = sc.free_margin_sigmas * sigma[starts[s]:starts[s + 1]] / res
-        ends[a + counts[s]:ray_starts[s + 1]] = m[s]
-    free, seen = K.carve_free(np.ascontiguousarray(o), ray_starts,
-                              np.ascontiguousarray((ends[:, 0] - ox) / res),
-                              np.ascontiguousarray((ends[:, 1] - oy) / res), margin, rows, cols)
+    # free space: each scan's rays, hit rays stopping free_margin_sigmas short, miss rays to
+    # their end (the order of a scan's rays does not change what it frees)
+    ray_scan = np.concatenate([hit_scan, miss_scan])
+    order = np.argsort(ray_scan, kind="stable")
+    ends = np.concatenate([np.stack([px, py], axis=1),
+                           (np.asarray(misses, dtype=np.float64).reshape(-1, 2) - [ox, oy]) / res])[order]
+    margin = np.concatenate([sc.free_margin_sigmas * sigma / res, np.zeros(len(miss_scan))])[order]
+    ray_starts = np.searchsorted(ray_scan[order], np.arange(n_scans + 1)).astype(np.int64)
+    free, seen = K.carve_free(o, ray_starts, np.ascontiguousarray(ends[:, 0]),
+                              np.ascontiguousarray(ends[:, 1]), np.ascontiguousarray(margin),
+                              rows, cols)
     prob = np.full((rows, cols), np.nan)
     l_free = np.maximum(free * logodds(cfg.grid.p_free), cfg.grid.l_min)
     prob[seen] = 1.0 / (1.0 + np.exp(-l_free[seen]))

@@ -21,8 +21,11 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out", default="docs/surface_form.png")
-    ap.add_argument("--tau", type=float, default=0.02)
+    ap.add_argument("--tau", type=float, default=None, help="default: the metric's default tau")
     args = ap.parse_args(argv)
+    from metrics.surface import DEFAULT_TAU_M
+    if args.tau is None:
+        args.tau = DEFAULT_TAU_M
     import matplotlib
     matplotlib.use("Agg")
     from matplotlib.figure import Figure
