@@ -12,9 +12,10 @@ All coordinates are in cell units of the output grid (x = (x_m - ox) / res, cell
   axis) to the density points of its own side within the window of the cell it is in, until
   the projection stays in its cell: the hit moves along the local normal onto the surface.
   Sides: a hit's normal, oriented towards the sensor, falls in one of `SECTORS` direction
-  sectors; a hit reads its own and the two adjacent sectors (normals within 22.5-45 degrees),
-  so the two faces of a thin wall (opposite normals) are never averaged into one, nor the two
-  walls of a corner.
+  sectors; a hit reads the hits of its own sector +- `spread` (the output map's wide pass: the
+  two adjacent ones too, normals within 22.5-45 degrees; its fine pass: its own), so the two
+  faces of a thin wall (opposite normals) are never averaged into one, nor, away from the
+  vertex, the two walls of a corner.
 - `hit_normals`: the oriented normal sector of every hit, from its neighbouring beams.
 - `carve_free`: per scan, every cell a ray crosses before the point `margin` short of its
   hit counts one free observation (once per scan; the cells holding the scan's hits are not
@@ -171,8 +172,8 @@ def _sector_of(nx, ny, nsec):
 
 @njit(cache=True, nogil=True)
 def _line_through(px, py, w, i, lo, hi, gate, out):
-    """Weighted line through the hits lo..hi-1 within `gate` of hit i: out = (normal x,
-    normal y, spread across the line); False with fewer than 3 such hits."""
+    """Weighted line through the hits lo..hi-1 within `gate` of hit i: out = its unit normal;
+    False with fewer than 3 such hits."""
     sw = sx = sy = sxx = sxy = syy = 0.0
     k = 0
     for j in range(lo, hi):
@@ -192,7 +193,6 @@ def _line_through(px, py, w, i, lo, hi, gate, out):
     theta = 0.5 * math.atan2(2.0 * b, a - d)
     out[0] = -math.sin(theta)
     out[1] = math.cos(theta)
-    out[2] = 0.5 * (a + d) - math.sqrt(0.25 * (a - d) * (a - d) + b * b)   # spread across it
     return True
 
 
@@ -204,7 +204,7 @@ def hit_normals(px, py, w, starts, neighbours, gate, ox, oy):
     starts: (S + 1,) each scan's first hit."""
     n = px.shape[0]
     out = np.zeros(n, dtype=np.int64)
-    fit = np.empty(3)
+    fit = np.empty(2)
     for s in range(starts.shape[0] - 1):
         lo, hi = starts[s], starts[s + 1]
         for i in range(lo, hi):
