@@ -20,7 +20,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from worlds.yamlio import InputError, parse_yaml, to_dict
+from worlds.yamlio import InputError, to_dict
 from slam.registry import ENTRY_POINT_GROUP
 
 __all__ = ["RunSpec", "Task", "VARY", "parse_worlds", "resolve_algos", "load_plugins",
@@ -277,7 +277,7 @@ def parse_overrides(items: list[str] | None, algos: list[str]) -> dict[str, dict
         if algo not in algos:
             raise InputError(f"--set {item}: algorithm '{algo}' is not in this run ({', '.join(algos)})")
         try:
-            parsed = parse_yaml(value)
+            parsed = yaml.safe_load(value)
         except yaml.YAMLError:
             raise InputError(f"--set {item}: the value is not a YAML scalar") from None
         node = out.setdefault(algo, {})

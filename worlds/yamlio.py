@@ -22,15 +22,7 @@ import yaml
 
 _EXPONENT_FLOAT = re.compile(r"^[-+]?(\d+\.?\d*|\.\d+)[eE][-+]?\d+$")
 
-
-class _Loader(yaml.SafeLoader):
-    """PyYAML's safe loader reading 1e5 and 5e-2 as floats: PyYAML follows YAML 1.1, where a
-    float needs a dot; YAML 1.2 and every user mean the number."""
-
-
-_Loader.add_implicit_resolver("tag:yaml.org,2002:float", _EXPONENT_FLOAT, list("-+0123456789."))
-
-__all__ = ["InputError", "load_yaml", "parse_yaml", "from_dict", "to_dict", "dump_yaml", "set_override",
+__all__ = ["InputError", "load_yaml", "from_dict", "to_dict", "dump_yaml", "set_override",
            "atomic_write_bytes", "atomic_write_text"]
 
 
@@ -50,17 +42,12 @@ def load_yaml(path: str | os.PathLike) -> Any:
     except OSError as err:
         raise InputError(f"{p}: cannot read: {err.strerror}") from None
     try:
-        return parse_yaml(text)
+        return yaml.safe_load(text)
     except yaml.YAMLError as err:
         mark = getattr(err, "problem_mark", None)
         at = f" (line {mark.line + 1})" if mark is not None else ""
         problem = " ".join(str(getattr(err, "problem", None) or err).split())
         raise InputError(f"{p}: not valid YAML{at}: {problem}") from None
-
-
-def parse_yaml(text: str) -> Any:
-    """The data of a YAML text (safe loading; 1e5 is a number). Raises yaml.YAMLError."""
-    return yaml.load(text, Loader=_Loader)
 
 
 def _suggest(key: str, allowed: list[str]) -> str:
@@ -205,7 +192,7 @@ def set_override(data: dict, override: str) -> dict:
     d = data
     for p in parts[:-1]:
         d = d.setdefault(p, {})
-    d[parts[-1]] = parse_yaml(value)
+    d[parts[-1]] = yaml.safe_load(value)
     return data
 
 

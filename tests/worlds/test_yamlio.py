@@ -20,25 +20,6 @@ def test_exponent_without_dot_is_a_number():
     assert from_dict(Weights, raw, where="w.yaml") == Weights(100000.0, -0.002)
 
 
-def test_yaml_files_read_exponents_as_numbers(tmp_path):
-    from worlds.yamlio import load_yaml, parse_yaml
-    f = tmp_path / "w.yaml"
-    f.write_text("a: 1e5\nb: -5e-2\nc: .5E+1\nd: 1.5e3\ne: '1e5'\nf: 1e5x\ng: 12\n")
-    assert load_yaml(f) == {"a": 100000.0, "b": -0.05, "c": 5.0, "d": 1500.0, "e": "1e5",
-                            "f": "1e5x", "g": 12}
-    assert isinstance(load_yaml(f)["g"], int)
-    assert parse_yaml("[1e5, 2]") == [100000.0, 2]
-
-
-def test_world_yaml_takes_exponent_numbers(tmp_path):
-    from worlds.load import load_world
-    f = tmp_path / "room.yaml"
-    f.write_text("name: room\nresolution: 5e-2\nwalls:\n  thickness: 1e-1\n  polylines:\n"
-                 "    - [[0, 0], [4e0, 0], [4, 3], [0, 3], [0, 0]]\nrobot:\n  start: [1e0, 1, 0]\n")
-    world = load_world(str(f))
-    assert world.resolution == 0.05 and world.start[0] == 1.0
-
-
 @pytest.mark.parametrize("text", ["e5", "1e", "1e5x", "fast", "1,5"])
 def test_other_strings_are_still_rejected(text):
     with pytest.raises(InputError, match=r"w\.yaml: translation: expected a number"):
