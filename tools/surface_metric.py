@@ -95,13 +95,13 @@ def smooth_drift(times: np.ndarray, amplitude: float, phase: float = 0.0) -> np.
 
 
 def _bench_score(grid, world, truth, tau):
-    """(surface P, S, study cell P, S) as bench scores a simulated world's map."""
+    """(surface P, S, study cell P, S) as bench scores a simulated world's map (both forms
+    under one ICP alignment from identity)."""
     import metrics
-    from metrics.surface import classify_surface, visible_surfaces
-    s = metrics.score_map(grid, truth, align="auto", initial=(0.0, 0.0, 0.0), gtfree=False)
-    pose = np.array([s["align"]["x"], s["align"]["y"], s["align"]["yaw"]])
-    c = classify_surface(grid, visible_surfaces(world), pose, tau).portion
-    return c.surface_precision, c.surface_sensitivity, s["precision"], s["sensitivity"]
+    from metrics.surface import visible_surfaces
+    s = metrics.score_map(grid, truth, align="auto", initial=(0.0, 0.0, 0.0), gtfree=False,
+                          surfaces=visible_surfaces(world), tau_m=tau)
+    return s["surface_precision"], s["surface_sensitivity"], s["precision"], s["sensitivity"]
 
 
 def _job(args):
