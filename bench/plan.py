@@ -20,7 +20,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from worlds.yamlio import InputError, to_dict
+from worlds.yamlio import InputError, parse_yaml, short, to_dict
 from slam.registry import ENTRY_POINT_GROUP
 
 __all__ = ["RunSpec", "Task", "VARY", "parse_worlds", "resolve_algos", "load_plugins",
@@ -267,7 +267,6 @@ def _merge(base: dict, over: dict) -> dict:
 def parse_overrides(items: list[str] | None, algos: list[str]) -> dict[str, dict]:
     """['pf.particles=50', 'graph.pose_graph.enable_loop_closure=false'] -> nested mappings per
     algorithm (values read as YAML scalars), each checked against the algorithm's config."""
-    import yaml
     out: dict[str, dict] = {}
     for item in items or []:
         key, eq, value = item.partition("=")
@@ -276,14 +275,13 @@ def parse_overrides(items: list[str] | None, algos: list[str]) -> dict[str, dict
             raise InputError(f"--set expects ALGO.FIELD=VALUE (e.g. pf.particles=50), got '{item}'")
         if algo not in algos:
             raise InputError(f"--set {item}: algorithm '{algo}' is not in this run ({', '.join(algos)})")
-        try:
-            parsed = yaml.safe_load(value)
-        except yaml.YAMLError:
-            raise InputError(f"--set {item}: the value is not a YAML scalar") from None
+        parsed = parse_yaml(value, f"--set {short(item)}")
         node = out.setdefault(algo, {})
         *parents, leaf = path.split(".")
         for p in parents:
             node = node.setdefault(p, {})
+            if not isinstance(node, dict):
+                raise InputError(f"--set {short(item)}: {algo}.{p} was set to a value above")
         node[leaf] = parsed
     for algo, over in out.items():
         try:

@@ -22,18 +22,91 @@ import yaml
 
 _EXPONENT_FLOAT = re.compile(r"^[-+]?(\d+\.?\d*|\.\d+)[eE][-+]?\d+$")
 
-__all__ = ["InputError", "load_yaml", "from_dict", "to_dict", "dump_yaml", "set_override",
-           "atomic_write_bytes", "atomic_write_text"]
+__all__ = ["InputError", "load_yaml", "parse_yaml", "from_dict", "to_dict", "dump_yaml",
+           "set_override", "short", "atomic_write_bytes", "atomic_write_text", "MAX_YAML_BYTES",
+           "MAX_YAML_DEPTH"]
+
+MAX_YAML_BYTES = 4 * 1024 * 1024
+MAX_YAML_DEPTH = 64
+_MAX_MESSAGE = 400
+_MAX_QUOTE = 100
 
 
 class InputError(ValueError):
-    """A problem with user input: names the file, the field and what is wrong."""
+    """A problem with user input: names the file, the field and what is wrong.
+
+    A message longer than a few hundred characters is cut in the middle, so that a huge value
+    never floods the terminal; quote values with `short` to keep the cut off the field.
+    """
+
+    def __init__(self, message: object = "") -> None:
+        text = str(message)
+        if len(text) > _MAX_MESSAGE:
+            text = text[:_MAX_MESSAGE - 60] + " ... " + text[-55:]
+        super().__init__(text)
+
+
+def short(value: Any, limit: int = _MAX_QUOTE) -> str:
+    """repr(value), cut to about `limit` characters for an error message."""
+    if isinstance(value, (list, tuple, dict)) and len(value) > limit:
+        # repr of a huge container costs memory before it can be cut
+        return f"a {type(value).__name__} of {len(value):,} items"
+    text = repr(value)
+    return text if len(text) <= limit else text[:limit - 4] + " ..."
+
+
+class _Loader(yaml.SafeLoader):
+    """PyYAML's safe loader with YAML 1.2's exponent numbers (1e5 is a float, as every user
+    means), no aliases (a few hundred bytes of nested aliases expand to gigabytes) and a cap
+    on nesting (deep nesting exhausts the recursion of the composer)."""
+
+    def __init__(self, stream) -> None:
+        super().__init__(stream)
+        self._depth = 0
+
+    def compose_node(self, parent, index):
+        if self.check_event(yaml.AliasEvent):
+            raise yaml.composer.ComposerError(
+                None, None, "aliases (*name) are not accepted", self.peek_event().start_mark)
+        self._depth += 1
+        try:
+            if self._depth > MAX_YAML_DEPTH:
+                raise yaml.composer.ComposerError(
+                    None, None, f"nested deeper than {MAX_YAML_DEPTH} levels",
+                    self.peek_event().start_mark)
+            return super().compose_node(parent, index)
+        finally:
+            self._depth -= 1
+
+
+_Loader.add_implicit_resolver("tag:yaml.org,2002:float", _EXPONENT_FLOAT, list("-+.0123456789"))
+
+
+def parse_yaml(text: str, where: str) -> Any:
+    """Parse YAML text with the project's loader; InputError naming `where` when it is not
+    valid YAML, holds an alias, is nested too deeply or is larger than MAX_YAML_BYTES."""
+    if len(text) > MAX_YAML_BYTES:
+        raise InputError(f"{where}: {len(text):,} characters, more than the {MAX_YAML_BYTES:,} "
+                         "a YAML file may have")
+    try:
+        return yaml.load(text, Loader=_Loader)
+    except yaml.YAMLError as err:
+        mark = getattr(err, "problem_mark", None)
+        at = f" (line {mark.line + 1})" if mark is not None else ""
+        problem = " ".join(str(getattr(err, "problem", None) or err).split())[:200]
+        raise InputError(f"{where}: not valid YAML{at}: {problem}") from None
+    except RecursionError:
+        raise InputError(f"{where}: not valid YAML: nested too deeply") from None
 
 
 def load_yaml(path: str | os.PathLike) -> Any:
     """Parse a YAML file; a missing or malformed file raises InputError naming it."""
     p = Path(path)
     try:
+        size = p.stat().st_size
+        if size > MAX_YAML_BYTES:
+            raise InputError(f"{p}: {size:,} bytes, more than the {MAX_YAML_BYTES:,} a YAML file "
+                             "may have")
         text = p.read_text(encoding="utf-8")
     except FileNotFoundError:
         raise InputError(f"{p}: file not found") from None
@@ -41,13 +114,7 @@ def load_yaml(path: str | os.PathLike) -> Any:
         raise InputError(f"{p}: not a text file (byte {err.start} is not UTF-8)") from None
     except OSError as err:
         raise InputError(f"{p}: cannot read: {err.strerror}") from None
-    try:
-        return yaml.safe_load(text)
-    except yaml.YAMLError as err:
-        mark = getattr(err, "problem_mark", None)
-        at = f" (line {mark.line + 1})" if mark is not None else ""
-        problem = " ".join(str(getattr(err, "problem", None) or err).split())
-        raise InputError(f"{p}: not valid YAML{at}: {problem}") from None
+    return parse_yaml(text, str(p))
 
 
 def _suggest(key: str, allowed: list[str]) -> str:
@@ -75,35 +142,31 @@ def _convert(tp: Any, value: Any, where: str, field: str) -> Any:
         raise InputError(errors[0] if errors else f"{where}: {field}: unexpected null")
     if dataclasses.is_dataclass(tp):
         if not isinstance(value, Mapping):
-            raise InputError(f"{where}: {field}: expected a mapping, got {value!r}")
+            raise InputError(f"{where}: {field}: expected a mapping, got {short(value)}")
         return from_dict(tp, value, where, prefix=f"{field}.")
     if tp is bool:
         if not isinstance(value, bool):
-            raise InputError(f"{where}: {field}: expected true or false, got {value!r}")
+            raise InputError(f"{where}: {field}: expected true or false, got {short(value)}")
         return value
     if tp is int:
         if isinstance(value, bool) or not isinstance(value, int):
             if isinstance(value, float) and value.is_integer():
                 return int(value)
-            raise InputError(f"{where}: {field}: expected an integer, got {value!r}")
+            raise InputError(f"{where}: {field}: expected an integer, got {short(value)}")
         return value
     if tp is float:
-        if isinstance(value, str) and _EXPONENT_FLOAT.match(value):
-            # PyYAML reads YAML 1.1, where 1e5 (no dot, no sign) is a string; YAML 1.2 and
-            # every user mean the number
-            return float(value)
         if isinstance(value, bool) or not isinstance(value, (int, float)):
-            raise InputError(f"{where}: {field}: expected a number, got {value!r}")
+            raise InputError(f"{where}: {field}: expected a number, got {short(value)}")
         if not math.isfinite(value):
-            raise InputError(f"{where}: {field}: expected a finite number, got {value!r}")
+            raise InputError(f"{where}: {field}: expected a finite number, got {short(value)}")
         return float(value)
     if tp is str:
         if not isinstance(value, str):
-            raise InputError(f"{where}: {field}: expected a string, got {value!r}")
+            raise InputError(f"{where}: {field}: expected a string, got {short(value)}")
         return value
     if origin is tuple or tp is tuple:
         if not isinstance(value, (list, tuple)):
-            raise InputError(f"{where}: {field}: expected a list, got {value!r}")
+            raise InputError(f"{where}: {field}: expected a list, got {short(value)}")
         if args and args[-1] is not Ellipsis:
             if len(value) != len(args):
                 raise InputError(f"{where}: {field}: expected {len(args)} values, got {len(value)}")
@@ -112,16 +175,16 @@ def _convert(tp: Any, value: Any, where: str, field: str) -> Any:
         return tuple(_convert(inner, v, where, f"{field}[{i}]") for i, v in enumerate(value))
     if origin is list or tp is list:
         if not isinstance(value, (list, tuple)):
-            raise InputError(f"{where}: {field}: expected a list, got {value!r}")
+            raise InputError(f"{where}: {field}: expected a list, got {short(value)}")
         inner = args[0] if args else Any
         return [_convert(inner, v, where, f"{field}[{i}]") for i, v in enumerate(value)]
     if origin is dict or tp is dict:
         if not isinstance(value, Mapping):
-            raise InputError(f"{where}: {field}: expected a mapping, got {value!r}")
+            raise InputError(f"{where}: {field}: expected a mapping, got {short(value)}")
         return dict(value)
     if typing.get_origin(tp) is typing.Literal:
         if value not in args:
-            raise InputError(f"{where}: {field}: expected one of {list(args)}, got {value!r}")
+            raise InputError(f"{where}: {field}: expected one of {list(args)}, got {short(value)}")
         return value
     return value
 
@@ -148,7 +211,7 @@ def from_dict(cls: type, data: Mapping[str, Any] | None, where: str = "<config>"
     if data is None:
         data = {}
     if not isinstance(data, Mapping):
-        raise InputError(f"{where}: {prefix.rstrip('.') or 'top level'}: expected a mapping, got {data!r}")
+        raise InputError(f"{where}: {prefix.rstrip('.') or 'top level'}: expected a mapping, got {short(data)}")
     hints = typing.get_type_hints(cls)
     fields = {f.name: f for f in dataclasses.fields(cls) if f.init}
     kwargs = {}
@@ -192,7 +255,7 @@ def set_override(data: dict, override: str) -> dict:
     d = data
     for p in parts[:-1]:
         d = d.setdefault(p, {})
-    d[parts[-1]] = yaml.safe_load(value)
+    d[parts[-1]] = parse_yaml(value, f"override {short(override)}")
     return data
 
 
@@ -201,12 +264,18 @@ def dump_yaml(data: Any) -> str:
     return yaml.safe_dump(to_dict(data), sort_keys=False, default_flow_style=None)
 
 
-def atomic_write_bytes(path: str | os.PathLike, data: bytes) -> None:
+def atomic_write_bytes(path: str | os.PathLike, data: bytes,
+                       root: str | os.PathLike | None = None) -> None:
     """Write `data` to `path` via a temporary file and rename: never a half-written file.
 
+    root: the folder the file belongs to; a `path` that resolves outside it (a name holding
+    `..`, an absolute path, a symlink out) raises InputError and writes nothing.
     An OSError names `path` (not the temporary file; a full disk names no file at all).
     """
     p = Path(path)
+    if root is not None:
+        from worlds.paths import path_inside
+        p = path_inside(root, p)
     try:
         _write_and_rename(p, data)
     except OSError as err:
@@ -236,6 +305,7 @@ def _write_and_rename(p: Path, data: bytes) -> None:
         raise
 
 
-def atomic_write_text(path: str | os.PathLike, text: str) -> None:
+def atomic_write_text(path: str | os.PathLike, text: str,
+                      root: str | os.PathLike | None = None) -> None:
     """Atomic text write (UTF-8), see atomic_write_bytes."""
-    atomic_write_bytes(path, text.encode("utf-8"))
+    atomic_write_bytes(path, text.encode("utf-8"), root)

@@ -4,7 +4,7 @@ from dataclasses import dataclass, field
 import pytest
 import yaml
 
-from worlds.yamlio import InputError, from_dict
+from worlds.yamlio import MAX_YAML_BYTES, InputError, from_dict, load_yaml, parse_yaml, short
 
 
 @dataclass(frozen=True)
@@ -14,10 +14,40 @@ class Weights:
 
 
 def test_exponent_without_dot_is_a_number():
-    # PyYAML (YAML 1.1) loads 1e5 and 2E-3 as strings; 1.0e+5 as a float
-    raw = yaml.safe_load("translation: 1e5\nrotation: -2E-3\n")
-    assert isinstance(raw["translation"], str)
+    # PyYAML (YAML 1.1) loads 1e5 and 2E-3 as strings; the project's loader as YAML 1.2 does
+    assert isinstance(yaml.safe_load("a: 1e5")["a"], str)
+    raw = parse_yaml("translation: 1e5\nrotation: -2E-3\n", "w.yaml")
+    assert raw == {"translation": 100000.0, "rotation": -0.002}
     assert from_dict(Weights, raw, where="w.yaml") == Weights(100000.0, -0.002)
+    assert parse_yaml("[.5e1, +1E+2, 1e, e5, 007, 1.5]", "w.yaml") == [5.0, 100.0, "1e", "e5", 7, 1.5]
+
+
+def test_aliases_are_refused_before_they_expand():
+    bomb = "a: &a [x, x, x, x, x, x, x, x, x]\n" + "".join(
+        f"{c}: &{c} [*{p}, *{p}, *{p}, *{p}, *{p}, *{p}, *{p}, *{p}, *{p}]\n"
+        for p, c in zip("abcdefgh", "bcdefghi"))
+    with pytest.raises(InputError, match=r"^w\.yaml: not valid YAML \(line 2\): aliases"):
+        parse_yaml(bomb, "w.yaml")
+
+
+def test_deep_nesting_and_huge_files_are_refused(tmp_path):
+    with pytest.raises(InputError, match="nested deeper than 64 levels"):
+        parse_yaml("[" * 100_000 + "]" * 100_000, "w.yaml")
+    assert parse_yaml("[" * 60 + "]" * 60, "w.yaml") is not None
+    big = tmp_path / "big.yaml"
+    big.write_text("a: " + "x" * (MAX_YAML_BYTES + 1))
+    with pytest.raises(InputError, match=r"big\.yaml: [\d,]+ bytes, more than"):
+        load_yaml(big)
+
+
+def test_error_messages_quote_at_most_about_a_hundred_characters():
+    with pytest.raises(InputError) as err:
+        from_dict(Weights, {"translation": "x" * 100_000}, where="w.yaml")
+    text = str(err.value)
+    assert text.startswith("w.yaml: translation: expected a number, got 'xxx")
+    assert len(text) < 160
+    assert short(list(range(10**6))) == "a list of 1,000,000 items"
+    assert len(str(InputError("f: " + "y" * 10**6))) <= 400
 
 
 @pytest.mark.parametrize("text", ["e5", "1e", "1e5x", "fast", "1,5"])
