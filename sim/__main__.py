@@ -38,15 +38,21 @@ def build_parser() -> argparse.ArgumentParser:
                                       "MCAP) to a sensor log")
     i.add_argument("file", help="log file, .bag, .mcap, or a ROS 2 bag folder")
     i.add_argument("--out", required=True, help="output .npz")
+    i.add_argument("--force", action="store_true", help="overwrite --out if it exists")
     i.add_argument("--format", choices=["carmen", "gfs"], default=None,
                    help="text log format (default: guessed from the file)")
-    i.add_argument("--scan-topic", help="bags: LaserScan or MultiEchoLaserScan topic (default /scan)")
+    i.add_argument("--topic", "--scan-topic", dest="scan_topic",
+                   help="bags: LaserScan or MultiEchoLaserScan topic (default /scan, else the "
+                        "first by name, with a warning when there are several)")
     i.add_argument("--odom-topic", help="bags: nav_msgs/Odometry topic (default /odom, else /tf)")
     i.add_argument("--imu-topic", help="bags: sensor_msgs/Imu topic (default /imu)")
     e = sub.add_parser("export", help="write a sensor log as a ROS bag (needs pip install .[ros])")
     e.add_argument("log", help="sensor log (.npz)")
     e.add_argument("--format", required=True, choices=["ros1", "ros2", "mcap"])
     e.add_argument("--out", required=True, help="ros1: a .bag file; ros2, mcap: a bag folder")
+    e.add_argument("--epoch", type=non_negative_int, default=None, metavar="SECONDS",
+                   help="stamp of the log's time 0, whole seconds since 1970 "
+                        "(default 1700000000, 2023-11-14 22:13:20 UTC)")
     return p
 
 
@@ -105,12 +111,16 @@ def _is_bag(path: Path) -> bool:
 def cmd_import(args) -> int:
     from sim.importers import import_log
     from sim.log import write_log
-    check_out_file(args.out)
+    out = check_out_file(args.out)
+    if out.exists() and not args.force:
+        raise InputError(f"{out}: exists already (--force overwrites it)")
     if _is_bag(Path(args.file)):
         from sim.rosbag import import_bag
         log = import_bag(args.file, args.scan_topic, args.odom_topic, args.imu_topic)
     else:
         log = import_log(args.file, fmt=args.format)
+    for warning in log.meta.get("import_warnings", []):
+        print(f"warning: {args.file}: {warning}", file=sys.stderr)
     write_log(log, args.out)
     print(f"{args.out}: {log.n_scans} scans, {log.duration:.1f} s")
     return 0
@@ -118,12 +128,12 @@ def cmd_import(args) -> int:
 
 def cmd_export(args) -> int:
     from sim.log import read_log
-    from sim.rosbag import export_bag
+    from sim.rosbag import DEFAULT_EPOCH, export_bag
     out = Path(args.out)
     if out.exists():
         raise InputError(f"{out}: exists already (a bag is never overwritten)")
     log = read_log(args.log)
-    export_bag(log, out, args.format)
+    export_bag(log, out, args.format, DEFAULT_EPOCH if args.epoch is None else args.epoch)
     maps = _write_true_map(log, out, args.log)
     print(f"{out}: {log.n_scans} scans, {log.duration:.1f} s" + (f"; true map {maps}" if maps else ""))
     return 0
