@@ -11,11 +11,16 @@ numbers), lidar ({range_min, range_max, offset: [x, y, yaw] of the lidar in the 
 scan_time, ...}), robot ({wheel_radius, wheel_separation, ...}), start_pose [x, y, yaw],
 sim_version, and how the recording went: ending (end | stuck | time limit), route_length,
 route_driven, wall_coverage (sim.record). Importers of real logs write what they know.
+
+Reading checks each member's declared uncompressed size against its .npy header before any
+array is read (a few kB of zip can declare gigabytes): the arrays together may take at most
+MAX_LOG_BYTES as float64, meta at most MAX_META_CHARS characters nested MAX_JSON_DEPTH deep.
 """
 from __future__ import annotations
 
 import io
 import json
+import math
 import zipfile
 import zlib
 from dataclasses import dataclass, field
@@ -23,12 +28,21 @@ from pathlib import Path
 
 import numpy as np
 
-from worlds.yamlio import InputError, atomic_write_bytes
+from worlds.yamlio import InputError, atomic_write_bytes, short
 from sim.logcheck import log_problem
 
-__all__ = ["SensorLog", "read_log", "write_log", "value_problem", "world_ref", "FORMAT_VERSION"]
+__all__ = ["SensorLog", "read_log", "write_log", "value_problem", "world_ref", "FORMAT_VERSION",
+           "MAX_LOG_BYTES", "MAX_META_CHARS", "MAX_JSON_DEPTH", "parse_json"]
 
 FORMAT_VERSION = 1
+# the arrays of one log, as float64: 2 GiB holds an hour of a 1080-beam lidar at 40 Hz
+# (1.2 GB) and is some 180 times the largest simulated log (swirl_l, 12 MB)
+MAX_LOG_BYTES = 2 * 1024 ** 3
+# the simulator writes 1-2 kB of meta; importers a few kB more
+MAX_META_CHARS = 1_000_000
+# deeper than the YAML cap (64: configs stored in JSON files may reach it), far below
+# Python's recursion limit (1000), which deep JSON would otherwise hit in every reader
+MAX_JSON_DEPTH = 100
 # zlib level of the .npz entries: most arrays are float noise that higher levels barely
 # shrink (a few % for 3x the time); np.load reads any level
 _DEFLATE_LEVEL = 1
@@ -157,6 +171,7 @@ def write_log(log: SensorLog, path: str | Path) -> None:
         raise InputError(f"{path}: {problem}")
     meta = dict(log.meta)
     meta["format_version"] = FORMAT_VERSION
+    _check_writable_size(log, meta, str(path))
     buf = io.BytesIO()
     arrays = {name: getattr(log, name) for name in _ARRAYS}
     # fixed zip timestamps and no compression metadata drift: same data, same bytes
@@ -175,41 +190,156 @@ def write_log(log: SensorLog, path: str | Path) -> None:
     atomic_write_bytes(path, buf.getvalue())
 
 
+def _check_writable_size(log: SensorLog, meta: dict, where: str) -> None:
+    """InputError when read_log would refuse the log for its size (MAX_LOG_BYTES,
+    MAX_META_CHARS, MAX_JSON_DEPTH): a writer must not make a file its own reader refuses."""
+    size = sum(getattr(log, n).nbytes for n in _ARRAYS)
+    if size > MAX_LOG_BYTES:
+        raise InputError(f"{where}: the log's arrays take {size:,} bytes, more than the "
+                         f"{MAX_LOG_BYTES:,} a sensor log may hold")
+    if _deeper_than(meta, MAX_JSON_DEPTH):
+        raise InputError(f"{where}: meta: JSON nested deeper than {MAX_JSON_DEPTH} levels")
+    meta_text = json.dumps(meta, sort_keys=True)
+    if len(meta_text) > MAX_META_CHARS:
+        raise InputError(f"{where}: meta: {len(meta_text):,} characters, more than the "
+                         f"{MAX_META_CHARS:,} a log's meta may have")
+
+
 def _deflates(data: bytes) -> bool:
     """Whether deflating `data` is worth it, judged on its first _PROBE bytes."""
     probe = data[:_PROBE]
     return len(zlib.compress(probe, _DEFLATE_LEVEL)) < (1.0 - _MIN_GAIN) * len(probe)
 
 
+def parse_json(text: str, where: str, max_depth: int = MAX_JSON_DEPTH):
+    """The value of JSON `text`; InputError naming `where` when it is not valid JSON or is
+    nested deeper than `max_depth` (lists and mappings in one another)."""
+    try:
+        value = json.loads(text)
+    except RecursionError:   # json's own recursion, at a depth near Python's limit
+        raise InputError(f"{where}: JSON nested deeper than {max_depth} levels") from None
+    except ValueError as err:   # JSONDecodeError, or an integer of more than 4300 digits
+        raise InputError(f"{where}: not valid JSON: {' '.join(str(err).split())[:200]}") from None
+    if _deeper_than(value, max_depth):
+        raise InputError(f"{where}: JSON nested deeper than {max_depth} levels")
+    return value
+
+
+def _deeper_than(value, limit: int) -> bool:
+    """Whether lists and dicts nest more than `limit` levels in `value` (iterative: a deep
+    value must not exhaust the recursion this check is there to protect)."""
+    stack = [(value, 1)] if isinstance(value, (dict, list)) else []
+    while stack:
+        v, depth = stack.pop()
+        if depth > limit:
+            return True
+        children = v.values() if isinstance(v, dict) else v
+        stack.extend((c, depth + 1) for c in children if isinstance(c, (dict, list)))
+    return False
+
+
+def _member_header(zf: zipfile.ZipFile, info: zipfile.ZipInfo, where: str):
+    """(shape, dtype) from the .npy header of a zip member, read without its data;
+    InputError naming the member when its declared uncompressed size (ZipInfo.file_size) is
+    not what that array needs, or it holds Python objects."""
+    with zf.open(info) as fh:
+        version = np.lib.format.read_magic(fh)
+        if version == (1, 0):
+            shape, _, dtype = np.lib.format.read_array_header_1_0(fh)
+        elif version == (2, 0):
+            shape, _, dtype = np.lib.format.read_array_header_2_0(fh)
+        else:
+            raise InputError(f"{where}: {info.filename}: .npy format version "
+                             f"{version[0]}.{version[1]} is not read (1.0 and 2.0 are)")
+        header = fh.tell()
+    if dtype.hasobject:
+        raise InputError(f"{where}: {info.filename}: holds Python objects (a pickle), not numbers")
+    need = header + math.prod(shape) * dtype.itemsize
+    if info.file_size != need:   # more: a bomb behind a small header; less: cut short
+        raise InputError(f"{where}: {info.filename}: declares {info.file_size:,} bytes "
+                         f"uncompressed, its {shape} {dtype} array needs {need:,}")
+    return shape, dtype
+
+
+def _checked_shapes(zf: zipfile.ZipFile, where: str) -> dict[str, tuple]:
+    """name -> shape of the log's arrays, from their headers: InputError before any array is
+    read when a member is missing, is not made of numbers, the arrays disagree in shape
+    (sim.log's rules) or would take more than MAX_LOG_BYTES as float64."""
+    present = set(zf.namelist())
+    missing = [n for n in _ARRAYS if f"{n}.npy" not in present]
+    if missing:
+        raise InputError(f"{where}: missing arrays: {', '.join(missing)}")
+    shapes, total = {}, 0
+    for name in _ARRAYS:
+        info = zf.getinfo(f"{name}.npy")
+        shape, dtype = _member_header(zf, info, where)
+        if dtype.kind not in "biuf":
+            raise InputError(f"{where}: {info.filename}: expected numbers, got dtype {dtype}")
+        total += math.prod(shape) * 8   # read as float64
+        if total > MAX_LOG_BYTES:
+            raise InputError(f"{where}: {info.filename}: its {shape} array brings the log to "
+                             f"{total:,} bytes, more than the {MAX_LOG_BYTES:,} a sensor log "
+                             "may hold")
+        shapes[name] = shape
+    # zero-stride views: the shape rules checked without allocating the arrays
+    problem = _shape_problem({n: np.broadcast_to(np.float64(0.0), s) for n, s in shapes.items()})
+    if problem:
+        raise InputError(f"{where}: {problem}")
+    return shapes
+
+
+def _read_meta(zf: zipfile.ZipFile, where: str) -> dict:
+    """The log's meta mapping from its `meta.npy` (a JSON string), size and depth checked."""
+    if "meta.npy" not in zf.namelist():
+        raise InputError(f"{where}: not a sensor log: no 'meta' entry")
+    info = zf.getinfo("meta.npy")
+    shape, dtype = _member_header(zf, info, where)
+    if dtype.kind not in "US" or math.prod(shape) != 1:
+        raise InputError(f"{where}: meta: expected one JSON string, got a {shape} {dtype} array")
+    chars = dtype.itemsize // (4 if dtype.kind == "U" else 1)
+    if chars > MAX_META_CHARS:
+        raise InputError(f"{where}: meta: {chars:,} characters, more than the "
+                         f"{MAX_META_CHARS:,} a log's meta may have")
+    with zf.open(info) as fh:
+        text = np.lib.format.read_array(fh, allow_pickle=False).reshape(-1)[0]
+    if isinstance(text, bytes):
+        text = text.decode("utf-8", errors="replace")
+    meta = parse_json(str(text), f"{where}: meta")
+    if not isinstance(meta, dict):
+        raise InputError(f"{where}: meta: expected a mapping, got {type(meta).__name__}")
+    return meta
+
+
 def read_log(path: str | Path) -> SensorLog:
-    """Read and check a sensor log; a bad file raises InputError naming it and the problem."""
+    """Read and check a sensor log; a bad file raises InputError naming it and the problem.
+
+    Sizes and shapes are checked from the members' headers before any array is read (module
+    docstring); values are checked by sim.logcheck.
+    """
     p = Path(path)
     if not p.exists():
         raise InputError(f"{p}: file not found")
     try:
-        with np.load(p, allow_pickle=False) as npz:
-            data = {k: npz[k] for k in npz.files}
-    except Exception as err:   # any damage numpy's npz/npy parsing can meet
+        with zipfile.ZipFile(p) as zf:
+            meta = _read_meta(zf, str(p))
+            version = meta.get("format_version")
+            if not isinstance(version, int) or isinstance(version, bool) or version < 1:
+                raise InputError(f"{p}: meta.format_version: expected an integer >= 1, "
+                                 f"got {short(version)}")
+            if version > FORMAT_VERSION:
+                raise InputError(f"{p}: meta.format_version: {version} is newer than this "
+                                 f"reader (reads up to {FORMAT_VERSION}); upgrade the package")
+            _checked_shapes(zf, str(p))
+            arrays = {}
+            for name in _ARRAYS:
+                with zf.open(f"{name}.npy") as fh:
+                    arrays[name] = np.asarray(np.lib.format.read_array(fh, allow_pickle=False),
+                                              dtype=np.float64)
+    except InputError:
+        raise
+    except Exception as err:   # any damage zip or npy parsing can meet
         reason = " ".join(str(err).split()) or type(err).__name__
         raise InputError(f"{p}: not a readable sensor log (.npz): {reason}") from None
-    if "meta" not in data:
-        raise InputError(f"{p}: not a sensor log: no 'meta' entry")
-    try:
-        meta = json.loads(str(np.asarray(data["meta"]).reshape(-1)[0]))
-    except json.JSONDecodeError as err:
-        raise InputError(f"{p}: meta: not valid JSON: {err}") from None
-    if not isinstance(meta, dict):
-        raise InputError(f"{p}: meta: expected a mapping, got {type(meta).__name__}")
-    version = meta.get("format_version")
-    if not isinstance(version, int) or isinstance(version, bool) or version < 1:
-        raise InputError(f"{p}: meta.format_version: expected an integer >= 1, got {version!r}")
-    if version > FORMAT_VERSION:
-        raise InputError(f"{p}: meta.format_version: {version} is newer than this reader "
-                         f"(reads up to {FORMAT_VERSION}); upgrade the package")
-    missing = [n for n in _ARRAYS if n not in data]
-    if missing:
-        raise InputError(f"{p}: missing arrays: {', '.join(missing)}")
-    arrays = {n: np.asarray(data[n], dtype=np.float64) for n in _ARRAYS}
     problem = _shape_problem(arrays) or log_problem(arrays, meta)
     if problem:
         raise InputError(f"{p}: {problem}")
