@@ -15,6 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from metrics.result import Result
+from metrics.tum import MAX_COORD_M, MAX_TIME_S
 from slam.pose import compose, interpolate_poses, relative, wrap_angle
 from worlds.yamlio import InputError
 
@@ -82,14 +83,28 @@ def _rmse(v: np.ndarray) -> float:
 
 
 def _check(t: np.ndarray, poses: np.ndarray, name: str) -> tuple[np.ndarray, np.ndarray]:
+    """(N,) times and (N, 3) poses sorted by time; InputError naming `name` and the first bad
+    pose when the shapes differ, a value is not finite or beyond metrics.tum's bounds
+    (|t| <= MAX_TIME_S, |x|, |y| <= MAX_COORD_M: beyond them the alignment's squares
+    overflow), or a time repeats."""
     t = np.asarray(t, dtype=np.float64).reshape(-1)
     poses = np.asarray(poses, dtype=np.float64)
     if poses.ndim != 2 or poses.shape[1] != 3 or len(poses) != len(t):
         raise InputError(f"{name}: expected (N,) times and (N, 3) poses, got {t.shape} and {poses.shape}")
     if len(t) == 0:
         raise InputError(f"{name}: empty trajectory")
-    if not (np.all(np.isfinite(t)) and np.all(np.isfinite(poses))):
-        raise InputError(f"{name}: non-finite values")
+    values = np.column_stack([t, poses])
+    bad = ~np.isfinite(values)
+    if bad.any():
+        i, j = np.argwhere(bad)[0]
+        field = ("t", "x", "y", "yaw")[j]
+        raise InputError(f"{name}: pose {i}: non-finite {field}: {values[i, j]}")
+    limit = np.array([MAX_TIME_S, MAX_COORD_M, MAX_COORD_M, np.inf])
+    beyond = np.abs(values) > limit
+    if beyond.any():
+        i, j = np.argwhere(beyond)[0]
+        raise InputError(f"{name}: pose {i}: {('t', 'x', 'y')[j]}: {values[i, j]:g} is beyond "
+                         f"+-{limit[j]:g}")
     order = np.argsort(t, kind="stable")
     t, poses = t[order], poses[order]
     if np.any(np.diff(t) <= 0):

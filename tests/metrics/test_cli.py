@@ -228,3 +228,18 @@ def test_tau_needs_a_world(maps, capsys):
                                   "--tau", "0.01"])
     one_line_error(code, out, err)
     assert "needs the world's YAML" in err
+
+
+def test_trajectory_with_a_huge_value_is_one_line(capsys, tmp_path):
+    """A TUM line holding 1e308 gave exit 0 and an alignment of -3e307: now exit 2, naming
+    the file, the line and the field."""
+    t = np.linspace(0, 20, 201)
+    gt = np.column_stack([0.1 * t, np.sin(0.2 * t), 0.1 * t])
+    write_tum(tmp_path / "gt.tum", t, gt)
+    lines = (tmp_path / "gt.tum").read_text().splitlines()
+    lines[3] = lines[3].replace(lines[3].split()[1], "1e308", 1)
+    (tmp_path / "huge.tum").write_text("\n".join(lines) + "\n")
+    code, out, err = run(capsys, ["trajectory", "--est", tmp_path / "huge.tum", "--truth",
+                                  tmp_path / "gt.tum"])
+    one_line_error(code, out, err)
+    assert f"{tmp_path / 'huge.tum'}: line 4: x: 1e+308 is beyond" in err and out == ""

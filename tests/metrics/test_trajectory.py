@@ -85,3 +85,23 @@ def test_rigid_fit_recovers_random_transforms(rng):
         src = rng.normal(size=(30, 2))
         fit = rigid_fit_2d(src, transform_points(pose, src))
         np.testing.assert_allclose(fit, pose, atol=1e-9)
+
+
+@pytest.mark.parametrize("where, value, match", [
+    ((5, 0), 1e308, "estimated trajectory: pose 5: x: 1e\\+308 is beyond"),
+    ((7, 1), -3e6, "estimated trajectory: pose 7: y: -3e\\+06 is beyond"),
+    ((2, 2), np.nan, "estimated trajectory: pose 2: non-finite yaw: nan"),
+])
+def test_huge_or_non_finite_poses_are_refused(where, value, match):
+    """1e308 overflows the alignment's squares: an error, not an ATE of inf."""
+    t, p = square_path()
+    bad = p.copy()
+    bad[where] = value
+    with pytest.raises(InputError, match=match):
+        trajectory_error(t, bad, t, p)
+
+
+def test_times_in_nanoseconds_are_refused():
+    t, p = square_path()
+    with pytest.raises(InputError, match="true trajectory: pose 0: t: 1.7e\\+18 is beyond"):
+        trajectory_error(t, p, t + 1.7e18, p)

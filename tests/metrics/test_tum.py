@@ -1,4 +1,6 @@
 """TUM trajectory files: round trip and clear errors on bad lines."""
+import re
+
 import numpy as np
 import pytest
 
@@ -44,3 +46,34 @@ def test_bad_files(tmp_path, text, match):
 def test_missing_file(tmp_path):
     with pytest.raises(InputError, match="file not found"):
         read_tum(tmp_path / "none.tum")
+
+
+@pytest.mark.parametrize("line, match", [
+    ("2 1e308 0 0 0 0 0 1", "line 2: x: 1e+308 is beyond"),
+    ("2 0 -2e6 0 0 0 0 1", "line 2: y: -2e+06 is beyond"),
+    ("2 0 0 0 0 0 1e308 1", "line 2: qz: 1e+308 is beyond"),
+    ("1.7e18 0 0 0 0 0 0 1", "line 2: t: 1.7e+18 is beyond"),    # nanoseconds, not seconds
+    ("2 nan 0 0 0 0 0 1", "line 2: non-finite x: nan"),
+    ("2 0 0 0 0 0 0 inf", "line 2: non-finite qw: inf"),
+    ("2 0 1e999 0 0 0 0 1", "line 2: non-finite y: inf"),          # overflows to inf
+])
+def test_values_must_be_finite_and_sane(tmp_path, line, match):
+    f = tmp_path / "huge.tum"
+    f.write_text(f"1 0 0 0 0 0 0 1\n{line}\n")
+    with pytest.raises(InputError, match=re.escape(match)) as err:
+        read_tum(f)
+    assert str(err.value).startswith(f"{f}: ") and "\n" not in str(err.value)
+
+
+def test_positions_outside_the_worlds_bounds_name_the_line(tmp_path):
+    f = tmp_path / "far.tum"
+    f.write_text("1 0 0 0 0 0 0 1\n2 4.9 1 0 0 0 0 1\n3 1 -2.5 0 0 0 0 1\n")
+    bounds = (0.0, 0.0, 3.0, 2.0)
+    t, _ = read_tum(f, bounds=bounds, margin=3.0)
+    assert len(t) == 3
+    with pytest.raises(InputError, match=r"line 3: y: -2.5 m is more than 2 m outside the "
+                                         r"world \(0\.\.2 m\)"):
+        read_tum(f, bounds=bounds, margin=2.0)
+    with pytest.raises(InputError, match=r"line 2: x: 4.9 m is more than 1 m outside the "
+                                         r"world \(0\.\.3 m\)"):
+        read_tum(f, bounds=bounds, margin=1.0)
