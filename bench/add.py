@@ -10,32 +10,36 @@ this project's output map (`render_map`), as every algorithm's map is built here
 SLAM is then compared pose for pose and map for map. The row, marked `source: "outside"`
 (and `rendered`), joins results.json under the run folder's lock, so the report shows the
 outside algorithm beside the run's own.
+
+The trajectory must lie within the world's bounds (by bench.task's divergence margin); a map
+without an occupied cell is stored as a failed row with `metrics score`'s reason for refusing
+it (`empty_map_problem`).
 """
 from __future__ import annotations
 
 import datetime as _dt
 import json
 import platform
-import re
 import time
 from pathlib import Path
 
 import numpy as np
 
+from worlds.grid import OCCUPIED_THRESH
+from worlds.paths import is_name, path_inside
 from worlds.yamlio import InputError, atomic_write_text
 from bench.plan import RunSpec, Task, load_plugins, make_tasks
-from bench.results import RESULTS_NAME, RUN_NAME, ResultStore, jsonable, read_rows
-from bench.runner import map_path, read_run, read_truth, run_lock, write_npz
-from bench.task import _score, new_row, score_trajectory
+from bench.results import (RESULTS_NAME, RUN_NAME, ResultStore, jsonable, read_rows, read_run,
+                           run_spec)
+from bench.runner import map_path, read_truth, run_lock, truth_path, write_npz
+from bench.task import DIVERGE_MARGIN_M, _score, new_row, score_trajectory
 
-__all__ = ["add_outside", "render_map", "draw_log_path", "SOURCE"]
+__all__ = ["add_outside", "render_map", "draw_log_path", "empty_map_problem", "SOURCE"]
 
 SOURCE = "outside"
 # TUM files print times to 1e-9 s or coarser: a scan at the trajectory's first or last stamp,
 # rounded, must still count as inside its time span
 _SPAN_SLACK_S = 1e-6
-# the name becomes a folder under maps/ and part of figure file names
-_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.+-]*")
 
 
 def _load_npz(path: Path, what: str, *keys: str) -> dict:
@@ -56,9 +60,9 @@ def _blank_keys() -> dict:
 def _check_name(name: str, spec: RunSpec) -> None:
     from slam import registry
     load_plugins()
-    if not _NAME.fullmatch(name or ""):
-        raise InputError(f"--algo {name!r}: expected a name of letters, digits and _ . + - "
-                         "(e.g. slam_toolbox)")
+    if not is_name(name):   # it becomes a folder under maps/ and part of figure file names
+        raise InputError(f"--algo {name!r}: expected a name of letters, digits and _ . + -, "
+                         "not starting with a dot (e.g. slam_toolbox)")
     if name in spec.algos:
         raise InputError(f"--algo {name}: an algorithm of this run ({', '.join(spec.algos)}); "
                          f"give the outside map another name (e.g. {name}_ros)")
@@ -72,8 +76,9 @@ def _draw_log_seed(spec: RunSpec, worlds: list[str], world: str, draw: int,
     """The log seed of `world`'s draw `draw` (its first repeat's log); InputError if the run
     has no such draw."""
     if spec.logs:  # the seeds are the logs' own, as the rows recorded them
-        seeds = {int(r.get("draw", 0)): int(r["log_seed"]) for r in rows
-                 if r["world"] == world and r.get("source") != SOURCE}
+        seeds = {int(r.get("draw") or 0): int(r["log_seed"]) for r in rows
+                 if r["world"] == world and r.get("source") != SOURCE
+                 and r.get("log_seed") is not None}
     else:
         seeds = {}
         for t in make_tasks(spec, worlds):
@@ -110,6 +115,26 @@ def draw_log_path(run_dir: Path, run: dict, spec: RunSpec, world: str, log_seed:
                          f"(noise {spec.noise}) is needed to render; it is not in the log cache "
                          "(another simulator version, another cache folder, or cleared)")
     return path
+
+
+def empty_map_problem(grid, where: str) -> str | None:
+    """Why `metrics score` refuses `grid` (read from `where`), in its words: no occupied cell
+    at the default threshold, so precision and ADNN are undefined; None when it has one."""
+    if grid.occupied(OCCUPIED_THRESH).any():
+        return None
+    return (f"{where}: the map has no occupied cell (p >= {OCCUPIED_THRESH}): precision and "
+            "ADNN undefined")
+
+
+def _world_bounds(run_dir: Path, world: str, truth) -> tuple[float, float, float, float]:
+    """(xmin, ymin, xmax, ymax) m of `world`: as the run stored them beside its true map, or
+    (a run from before they were stored) the true map's extent."""
+    with np.load(truth_path(run_dir, world)) as z:
+        stored = np.asarray(z["bounds"], dtype=np.float64).reshape(-1) if "bounds" in z else None
+    if stored is not None and stored.shape == (4,) and np.all(np.isfinite(stored)):
+        return tuple(float(v) for v in stored)
+    x0, y0 = float(truth.origin[0]), float(truth.origin[1])
+    return (x0, y0, x0 + truth.width_m, y0 + truth.height_m)
 
 
 def render_map(log, times: np.ndarray, poses: np.ndarray, where: str = "trajectory"):
@@ -159,12 +184,8 @@ def add_outside(run_dir: str | Path, world: str, algo: str, map_yaml: str | Path
     run = read_run(run_dir)
     if not (run_dir / RESULTS_NAME).is_file():
         raise InputError(f"{run_dir}: no {RESULTS_NAME} here: not a bench run directory")
-    try:
-        spec = RunSpec.from_json(run["spec"])
-        worlds = list(run["worlds"])
-    except (KeyError, TypeError):
-        raise InputError(f"{run_dir / RUN_NAME}: not a bench run description (no spec or "
-                         "worlds)") from None
+    spec = run_spec(run, run_dir / RUN_NAME)
+    worlds = list(run["worlds"])
     if world not in worlds:
         raise InputError(f"--world {world}: not a world of this run (its worlds: "
                          f"{', '.join(worlds)})")
@@ -177,7 +198,8 @@ def add_outside(run_dir: str | Path, world: str, algo: str, map_yaml: str | Path
     grid = None if render else read_map(map_yaml)
     times, poses, gt = np.zeros(0), np.zeros((0, 3)), None
     if trajectory is not None:
-        times, poses = read_tum(trajectory)
+        times, poses = read_tum(trajectory, bounds=_world_bounds(run_dir, world, truth),
+                                margin=DIVERGE_MARGIN_M)
         gt = _load_npz(run_dir / "maps" / world / f"gt_s{log_seed}.npz",
                        f"true path of {world} log seed {log_seed}", "times", "poses")
     if render:
@@ -188,7 +210,11 @@ def add_outside(run_dir: str | Path, world: str, algo: str, map_yaml: str | Path
     row.update(_blank_keys(), slam_seed=None, slam_stats={}, source=SOURCE, rendered=render,
                map_source=None if render else str(Path(map_yaml).resolve()),
                trajectory_source=str(Path(trajectory).resolve()) if gt is not None else None)
-    row.update(_score(grid, truth, surfaces))
+    problem = empty_map_problem(grid, str(trajectory) if render else str(map_yaml))
+    if problem:   # metrics score refuses such a map: the same verdict, stored as a failed row
+        row.update(status="failed", error=problem)
+    else:
+        row.update(_score(grid, truth, surfaces))
     if gt is not None:
         row.update(score_trajectory(times, poses, gt["times"], gt["poses"]))
     row["score_time_s"] = row["task_time_s"] = time.perf_counter() - t0
@@ -199,6 +225,7 @@ def add_outside(run_dir: str | Path, world: str, algo: str, map_yaml: str | Path
         row["repeat"] = 1 + max((r for w, a, r in store.rows if (w, a) == (world, algo)),
                                 default=-1)
         p = map_path(run_dir, world, algo, row["repeat"])
+        path_inside(run_dir, p.relative_to(run_dir))   # a symlinked folder must not lead out
         write_npz(p, prob=grid.prob, resolution=grid.resolution, origin=grid.origin,
                   times=times, poses=poses)
         row["map_file"] = str(p.relative_to(run_dir))
@@ -209,7 +236,8 @@ def add_outside(run_dir: str | Path, world: str, algo: str, map_yaml: str | Path
             {"at": row["finished_at"], "world": world, "algo": algo, "repeat": row["repeat"],
              "draw": draw, "map": row["map_source"], "trajectory": row["trajectory_source"],
              "rendered": render})
-        atomic_write_text(run_dir / RUN_NAME, json.dumps(jsonable(run), indent=1) + "\n")
+        atomic_write_text((run_dir / RUN_NAME).absolute(),
+                          json.dumps(jsonable(run), indent=1) + "\n", root=run_dir)
         if report:
             from bench.report import write_report
             write_report(run_dir, figures=figures)

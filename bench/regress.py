@@ -20,9 +20,9 @@ import tempfile
 from pathlib import Path
 
 from metrics import registry
-from worlds.yamlio import InputError, atomic_write_text
+from worlds.yamlio import InputError, atomic_write_text, short
 from bench.plan import RunSpec, resolve_algos
-from bench.results import jsonable, read_rows
+from bench.results import jsonable, read_json, read_rows
 from bench.tables import mean_std
 
 __all__ = ["BASELINE_PATH", "DEFAULT_WORLDS", "DEFAULT_REPEATS", "default_tolerances",
@@ -94,15 +94,50 @@ def unchecked(baseline: dict[str, dict], tolerances=None) -> list[str]:
 
 
 def _load_baseline(path: Path) -> dict:
+    """The baseline file, checked (_check_baseline); InputError naming the file and field."""
     if not path.is_file():
         raise InputError(f"{path}: no baseline file (create one with --update)")
-    try:
-        data = json.loads(path.read_text())
-    except json.JSONDecodeError as err:
-        raise InputError(f"{path}: not valid JSON: {err}") from None
-    if not isinstance(data, dict) or "matrix" not in data or "means" not in data:
+    data = read_json(path, "bench baseline")
+    if "matrix" not in data or "means" not in data:
         raise InputError(f"{path}: not a bench baseline (needs 'matrix' and 'means')")
+    _check_baseline(data, str(path))
     return data
+
+
+def _check_baseline(data: dict, where: str) -> None:
+    """InputError '<where>: FIELD: problem' unless the matrix, means and tolerances have the
+    types regress() reads (a hand-edited baseline must fail in one line, not in a format)."""
+    matrix, means = data["matrix"], data["means"]
+    if not isinstance(matrix, dict):
+        raise InputError(f"{where}: matrix: expected a mapping, got {short(matrix)}")
+    for key in ("worlds", "algos"):   # each key may be absent: regress() has defaults
+        v = matrix.get(key, ["default"])
+        if not isinstance(v, list) or not v or not all(isinstance(x, str) for x in v):
+            raise InputError(f"{where}: matrix.{key}: expected a list of names, got {short(v)}")
+    for key, low in (("repeats", 1), ("seed", 0)):
+        v = matrix.get(key, low)
+        if isinstance(v, bool) or not isinstance(v, int) or v < low:
+            raise InputError(f"{where}: matrix.{key}: expected an integer >= {low}, got {short(v)}")
+    if not isinstance(matrix.get("noise", ""), str):
+        raise InputError(f"{where}: matrix.noise: expected a name, got {short(matrix['noise'])}")
+    if not isinstance(means, dict):
+        raise InputError(f"{where}: means: expected a mapping, got {short(means)}")
+    for pair, entry in means.items():
+        if not isinstance(entry, dict):
+            raise InputError(f"{where}: means.{pair}: expected a mapping, got {short(entry)}")
+        for m, v in entry.items():
+            if v is not None and (isinstance(v, bool) or not isinstance(v, (int, float))):
+                raise InputError(f"{where}: means.{pair}.{m}: expected a number or null, got "
+                                 f"{short(v)}")
+    tolerances = data.get("tolerances", {})
+    if not isinstance(tolerances, dict):
+        raise InputError(f"{where}: tolerances: expected a mapping, got {short(tolerances)}")
+    for m, v in tolerances.items():
+        if not (isinstance(v, list) and len(v) == 2 and v[0] in ("drop", "rise")
+                and isinstance(v[1], (int, float)) and not isinstance(v[1], bool)
+                and math.isfinite(v[1])):
+            raise InputError(f"{where}: tolerances.{m}: expected [\"drop\" or \"rise\", a number], "
+                             f"got {short(v)}")
 
 
 def regress(baseline: str | Path | None = None, update: bool = False, worlds=None, algos=None,

@@ -4,6 +4,13 @@ The file is a JSON object {"format": 1, "rows": [...]} with rows sorted by (worl
 so an interrupted-and-resumed run and an uninterrupted run give the same file up to timing
 fields (`TIMING_FIELDS`, see `comparable`). Every append rewrites the whole file through a
 temporary file and os.replace: a Ctrl-C or a killed process leaves the previous complete file.
+
+Reading checks what later steps trust (`read_rows`, `read_run`): a UTF-8 JSON object of at
+most MAX_JSON_BYTES nested at most sim.log.MAX_JSON_DEPTH deep; rows that are mappings with
+the name rule (worlds.paths) on the fields that become parts of paths, whole numbers where
+file names and seeds are made of them, numbers (or null) where the tables average them, and
+a `map_file` that stays inside the run folder. Anything else is one InputError naming the
+file and the field (`rows[3].repeat`).
 """
 from __future__ import annotations
 
@@ -12,10 +19,13 @@ import math
 from pathlib import Path
 from typing import Iterable
 
-from worlds.yamlio import InputError, atomic_write_text
+from sim.log import parse_json
+from worlds.paths import check_name, is_name
+from worlds.yamlio import InputError, atomic_write_text, short
 
-__all__ = ["ResultStore", "RESULTS_NAME", "RUN_NAME", "TIMING_FIELDS", "comparable", "read_rows",
-           "row_key", "jsonable"]
+__all__ = ["ResultStore", "RESULTS_NAME", "RUN_NAME", "TIMING_FIELDS", "MAX_JSON_BYTES",
+           "comparable", "read_rows", "read_run", "read_json", "run_spec", "check_row", "row_key",
+           "jsonable"]
 
 RESULTS_NAME = "results.json"
 RUN_NAME = "run.json"
@@ -24,6 +34,20 @@ FORMAT = 1
 TIMING_FIELDS = frozenset({"wall_time_s", "realtime_factor", "update_time_median_s",
                            "update_time_max_s", "finish_time_s", "task_time_s", "score_time_s",
                            "finished_at", "worker", "host", "cpu"})
+# a row takes about 3 kB: 64 MiB hold some 20,000 rows, and parse into well under 1 GB
+MAX_JSON_BYTES = 64 * 1024 * 1024
+STATUSES = ("ok", "failed")
+# row fields that become parts of paths (maps/<world>/<algo>/<repeat>.npz): the name rule
+_NAME_FIELDS = ("world", "algo")
+# whole numbers that name files (<repeat>.npz, gt_s<log_seed>.npz) or seed generators;
+# repeat is required, the others may be null (an outside row has no SLAM seed)
+_COUNT_FIELDS = ("repeat", "draw")
+_SEED_FIELDS = ("log_seed", "slam_seed")
+_INT_LIMIT = 2 ** 63
+# read as text by the tables and the report
+_TEXT_FIELDS = ("error", "noise", "vary", "source", "traceback", "note", "map_file")
+# numbers the tables, figures and regress read besides the registry's columns
+_NUMBER_FIELDS = ("surface_tau_m", "align_x", "align_y", "align_yaw")
 
 
 def row_key(row: dict) -> tuple[str, str, int]:
@@ -55,20 +79,140 @@ def comparable(rows: Iterable[dict]) -> list[dict]:
     return out
 
 
+def read_json(path: str | Path, what: str) -> dict:
+    """The JSON object in file `path`; InputError naming the file when it is missing, larger
+    than MAX_JSON_BYTES, not UTF-8 text (a binary file), not valid JSON, nested too deeply
+    (sim.log.parse_json) or not an object. what: the kind of file, for the message."""
+    p = Path(path)
+    try:
+        size = p.stat().st_size
+        if size > MAX_JSON_BYTES:
+            raise InputError(f"{p}: {size:,} bytes, more than the {MAX_JSON_BYTES:,} a {what} "
+                             "may have")
+        raw = p.read_bytes()
+    except FileNotFoundError:
+        raise InputError(f"{p}: file not found") from None
+    except OSError as err:
+        raise InputError(f"{p}: cannot read: {err.strerror}") from None
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError as err:
+        raise InputError(f"{p}: not a text file (byte {err.start} is not UTF-8): not a "
+                         f"{what}") from None
+    data = parse_json(text, str(p))
+    if not isinstance(data, dict):
+        raise InputError(f"{p}: not a {what} (expected a JSON object, got "
+                         f"{type(data).__name__})")
+    return data
+
+
 def read_rows(path: str | Path) -> list[dict]:
-    """Rows of a results.json (a directory or the file); InputError on a missing or bad file."""
+    """Rows of a results.json (a directory or the file), each checked by check_row;
+    InputError on a missing or bad file, naming the file and the field."""
     p = Path(path)
     if p.is_dir():
         p = p / RESULTS_NAME
     if not p.is_file():
         raise InputError(f"{p}: file not found")
-    try:
-        data = json.loads(p.read_text())
-    except json.JSONDecodeError as err:
-        raise InputError(f"{p}: not valid JSON: {err}") from None
-    if not isinstance(data, dict) or not isinstance(data.get("rows"), list):
+    data = read_json(p, "bench results file")
+    if not isinstance(data.get("rows"), list):
         raise InputError(f"{p}: not a bench results file (no 'rows' list)")
+    if data.get("format", FORMAT) != FORMAT:
+        raise InputError(f"{p}: format: expected {FORMAT}, got {short(data['format'])}")
+    seen: dict[tuple, int] = {}
+    numbers = _number_fields()
+    for i, row in enumerate(data["rows"]):
+        check_row(row, str(p), f"rows[{i}]", numbers)
+        key = row_key(row)
+        if key in seen:
+            raise InputError(f"{p}: rows[{i}]: {'/'.join(map(str, key))} again (also "
+                             f"rows[{seen[key]}])")
+        seen[key] = i
     return data["rows"]
+
+
+def check_row(row: object, file: str, field: str = "row", numbers=None) -> None:
+    """InputError '<file>: <field>.KEY: problem' unless `row` is a mapping whose fields have
+    the types later steps trust (module docstring). numbers: the keys that must hold a number
+    or null (default: _number_fields())."""
+    if not isinstance(row, dict):
+        raise InputError(f"{file}: {field}: expected a mapping (a row), got {short(row)}")
+    for key in _NAME_FIELDS:
+        check_name(row.get(key), file, f"{field}.{key}")
+    for key in (*_COUNT_FIELDS, *_SEED_FIELDS):
+        if key == "repeat" or row.get(key) is not None:
+            low = 0 if key in _COUNT_FIELDS else -_INT_LIMIT
+            _check_int(row.get(key), f"{file}: {field}.{key}", low)
+    if row.get("status") not in STATUSES:
+        raise InputError(f"{file}: {field}.status: expected one of {', '.join(STATUSES)}, got "
+                         f"{short(row.get('status'))}")
+    for key in _TEXT_FIELDS:
+        if row.get(key) is not None and not isinstance(row[key], str):
+            raise InputError(f"{file}: {field}.{key}: expected text or null, got "
+                             f"{short(row[key])}")
+    for key in _number_fields() if numbers is None else numbers:
+        v = row.get(key)
+        if v is not None and (isinstance(v, bool) or not isinstance(v, (int, float))):
+            raise InputError(f"{file}: {field}.{key}: expected a number or null, got {short(v)}")
+    if row.get("map_file") is not None:
+        _check_map_file(row["map_file"], f"{file}: {field}.map_file")
+
+
+def _check_int(value: object, where: str, low: int) -> None:
+    """InputError '<where>: ...' unless `value` is an integer in [low, 2**63) (not a bool)."""
+    if isinstance(value, bool) or not isinstance(value, int) or not low <= value < _INT_LIMIT:
+        floor = "0" if low == 0 else "-2**63"
+        raise InputError(f"{where}: expected an integer in [{floor}, 2**63), got {short(value)}")
+
+
+def _check_map_file(value: str, where: str) -> None:
+    """A row's map file: a relative path of names (worlds.paths), so that it stays inside the
+    run folder (maps/<world>/<algo>/<repeat>.npz); '..', an absolute path or an empty part
+    is refused."""
+    parts = value.split("/")
+    if value.startswith("/") or not all(is_name(part) for part in parts):
+        raise InputError(f"{where}: {short(value)} is not a path inside the run folder (parts "
+                         "of letters, digits and _ . + -, separated by /)")
+
+
+def _number_fields() -> tuple[str, ...]:
+    """The keys the report averages (metrics.registry's columns and their fallbacks) and the
+    other numbers it reads."""
+    from metrics import registry
+    cols = registry.columns()
+    return (*{c.key for c in cols} | {c.fallback for c in cols if c.fallback}, *_NUMBER_FIELDS)
+
+
+def read_run(out_dir: str | Path) -> dict:
+    """DIR/run.json as a dict; InputError if it is missing, unreadable or not a JSON object
+    (read_json)."""
+    p = Path(out_dir) / RUN_NAME
+    if not p.is_file():
+        raise InputError(f"{out_dir}: no {RUN_NAME} here: not a bench run directory")
+    return read_json(p, "bench run description")
+
+
+def run_spec(run: dict, where: str | Path):
+    """The bench.plan.RunSpec stored in a run.json (read_run), and its world keys checked by
+    the name rule; InputError naming `where` and the field when they are malformed."""
+    from bench.plan import RunSpec
+    spec, worlds = run.get("spec"), run.get("worlds")
+    if not isinstance(spec, dict):
+        raise InputError(f"{where}: spec: expected a mapping (the run's arguments), got "
+                         f"{short(spec)}")
+    if not isinstance(worlds, dict):
+        raise InputError(f"{where}: worlds: expected a mapping (world key -> its file), got "
+                         f"{short(worlds)}")
+    for key, entry in worlds.items():
+        check_name(key, str(where), "worlds")
+        if not isinstance(entry, dict):
+            raise InputError(f"{where}: worlds.{key}: expected a mapping, got {short(entry)}")
+    try:
+        return RunSpec.from_json(spec)
+    except InputError as err:
+        raise InputError(f"{where}: spec: {err}") from None
+    except (TypeError, ValueError) as err:   # a field of the wrong type, e.g. worlds: 5
+        raise InputError(f"{where}: spec: not a run's arguments ({err})") from None
 
 
 class ResultStore:
@@ -97,7 +241,8 @@ class ResultStore:
     def save(self) -> None:
         rows = [self.rows[k] for k in sorted(self.rows)]
         text = json.dumps({"format": FORMAT, "rows": rows}, indent=1, sort_keys=False)
-        atomic_write_text(self.path, text + "\n")
+        # absolute: atomic_write_text joins a relative path to root (runs/x/runs/x/...)
+        atomic_write_text(self.path.absolute(), text + "\n", root=self.dir)
 
     def sorted_rows(self) -> list[dict]:
         return [self.rows[k] for k in sorted(self.rows)]

@@ -126,6 +126,10 @@ def _err_line(capsys):
     ({"--draw": "1"}, "--draw 1: out of range (tiny has draws 0..0 in this run)"),
     ({"--draw": "-1"}, "--draw: must be an integer >= 0, got '-1'"),
     ({"--trajectory": "BAD_TUM"}, "bad.tum: line 1"),
+    ({"--trajectory": "HUGE_TUM"}, "huge.tum: line 3: x: 1e+308 is beyond +-1e+06"),
+    ({"--trajectory": "NAN_TUM"}, "nan.tum: line 3: non-finite y: nan"),
+    ({"--trajectory": "FAR_TUM"}, "far.tum: line 3: x: 9 m is more than 2 m outside the world "
+                                  "(-0.05..1.65 m)"),
     ({"--map": None}, "give --map MAP.yaml, or --trajectory T.tum with --render"),
 ])
 def test_bad_input_is_one_line_exit_2(run, tmp_path, capsys, change, msg):
@@ -134,10 +138,15 @@ def test_bad_input_is_one_line_exit_2(run, tmp_path, capsys, change, msg):
     (tmp_path / "broken.png").write_text("not a picture\n")
     (tmp_path / "broken.yaml").write_text(yaml_path.read_text().replace("oracle_pgm.pgm", "broken.png"))
     (tmp_path / "bad.tum").write_text("0 1 2\n")
+    two = "0 0.5 0.5 0 0 0 0 1\n0.1 0.6 0.5 0 0 0 0 1\n"
+    (tmp_path / "huge.tum").write_text(two + "0.2 1e308 0.5 0 0 0 0 1\n")
+    (tmp_path / "nan.tum").write_text(two + "0.2 0.7 nan 0 0 0 0 1\n")
+    (tmp_path / "far.tum").write_text(two + "0.2 9 0.5 0 0 0 0 1\n")   # world: x -0.05..1.65
     (tmp_path / "empty").mkdir()
     files = {"EMPTY": tmp_path / "empty", "MISSING": tmp_path / "missing.yaml",
              "BAD": tmp_path / "bad.yaml", "BROKEN_PNG": tmp_path / "broken.yaml",
-             "BAD_TUM": tmp_path / "bad.tum"}
+             "BAD_TUM": tmp_path / "bad.tum", "HUGE_TUM": tmp_path / "huge.tum",
+             "NAN_TUM": tmp_path / "nan.tum", "FAR_TUM": tmp_path / "far.tum"}
     args = {"dir": run, "--world": "tiny", "--algo": "outside", "--map": yaml_path}
     args.update(change)
     argv = ["add", str(files.get(args.pop("dir"), run))]
@@ -148,6 +157,34 @@ def test_bad_input_is_one_line_exit_2(run, tmp_path, capsys, change, msg):
     assert main(argv) == 2
     assert msg in _err_line(capsys)
     assert (run / "results.json").read_bytes() == before
+
+
+@pytest.mark.parametrize("prob", [0.5, 0.0], ids=["all-unknown", "all-free"])
+def test_a_map_without_an_occupied_cell_is_a_failed_row_as_metrics_score_says(run, tmp_path,
+                                                                              capsys, prob):
+    """metrics score refuses a map without an occupied cell; bench add stored it as ok with
+    P = S = 0. Now: a failed row whose error is metrics score's own line."""
+    from metrics.__main__ import main as metrics_main
+    empty = tmp_path / "empty_map.yaml"
+    write_map(Grid(np.full((30, 30), prob), 0.05, np.zeros(3)), empty)
+    assert metrics_main(["score", "--map", str(empty), "--truth", TINY]) == 2
+    refusal = _err_line(capsys).removeprefix("error: ")
+    assert main(["add", str(run), "--world", "tiny", "--algo", "blank", "--map", str(empty),
+                 "--no-figures"]) == 0
+    row = _row(run, "blank")
+    assert row["status"] == "failed" and row["error"] == refusal
+    assert row.get("precision") is None and row.get("surface_precision") is None
+    assert "blank" in (run / "summary.md").read_text()
+
+
+def test_a_relative_run_folder(run, tmp_path, capsys, monkeypatch):
+    """The row and run.json land in the run folder, not in a copy of its path inside it."""
+    yaml_path, _ = _oracle_files(run, tmp_path)
+    monkeypatch.chdir(tmp_path)
+    assert main(["add", "run", "--world", "tiny", "--algo", "rel", "--map", str(yaml_path),
+                 "--no-figures"]) == 0
+    assert _row(run, "rel")["status"] == "ok" and not (run / "run").exists()
+    assert json.loads((run / "run.json").read_text())["added"][-1]["algo"] == "rel"
 
 
 def test_a_run_in_progress_is_refused(run, tmp_path, capsys):
