@@ -9,6 +9,7 @@ Dask is an optional extra (`pip install .[dask]`), imported only when a schedule
 from __future__ import annotations
 
 import concurrent.futures as cf
+import multiprocessing
 import os
 import signal
 import threading
@@ -19,28 +20,44 @@ from worlds.yamlio import InputError
 __all__ = ["make_executor", "InlineExecutor", "PoolExecutor", "DaskExecutor"]
 
 
+# how often a worker looks whether its parent is still there: a dead runner's workers are
+# gone within this, and two getppid() calls a second cost nothing a run could notice
+_PARENT_POLL_S = 0.5
+
+
 def _worker_init() -> None:
     """A pool worker: ignores Ctrl-C (the runner handles it once and stops the workers itself)
-    and dies with its parent, whatever signal ends it: Linux delivers SIGKILL when the parent
-    dies (prctl PR_SET_PDEATHSIG); elsewhere a thread notices the parent is gone."""
+    and dies with its parent, whatever signal ends it. Two guards: Linux delivers SIGKILL when
+    the parent dies (prctl PR_SET_PDEATHSIG), and a thread polls for the parent everywhere,
+    also where the signal is armed but never delivered (gVisor's sandboxed kernel)."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
-    parent = os.getppid()
+    _arm_parent_death_signal()
+    # the pid multiprocessing started us from, not getppid(): if the runner died already,
+    # getppid() names whoever adopted us (and a runner may itself be pid 1, in a container)
+    started_by = multiprocessing.parent_process()
+    parent = started_by.pid if started_by is not None else os.getppid()
+    if os.getppid() != parent:   # orphaned before the guards were up
+        os._exit(1)
+    threading.Thread(target=_watch_parent, args=(parent,), name="watch-parent",
+                     daemon=True).start()
+
+
+def _arm_parent_death_signal() -> bool:
+    """Ask Linux for SIGKILL when the parent dies; whether the kernel took the request (a
+    kernel may take it and still never send the signal: see _worker_init)."""
     try:
         import ctypes
         libc = ctypes.CDLL(None, use_errno=True)
         pr_set_pdeathsig = 1
-        armed = libc.prctl(pr_set_pdeathsig, signal.SIGKILL, 0, 0, 0) == 0
+        return libc.prctl(pr_set_pdeathsig, signal.SIGKILL, 0, 0, 0) == 0
     except (OSError, AttributeError):
-        armed = False
-    if parent == 1:   # orphaned before the signal was armed
-        os._exit(1)
-    if not armed:
-        threading.Thread(target=_watch_parent, args=(parent,), daemon=True).start()
+        return False
 
 
-def _watch_parent(parent: int) -> None:
+def _watch_parent(parent: int, poll_s: float = _PARENT_POLL_S) -> None:
+    """End this process once its parent `parent` is gone (it is then re-parented)."""
     while os.getppid() == parent:
-        time.sleep(0.5)
+        time.sleep(poll_s)
     os._exit(1)
 
 

@@ -74,6 +74,58 @@ def test_kill_9_of_the_runner_leaves_no_worker_alive(tiny, tmp_path):
             os.kill(w, signal.SIGKILL)
 
 
+def _worker_state():
+    """In a pool worker: (whether the parent-death signal can be armed here, thread names)."""
+    import threading
+
+    from bench.executors import _arm_parent_death_signal
+    return _arm_parent_death_signal(), [t.name for t in threading.enumerate()]
+
+
+def test_the_parent_watch_runs_even_where_the_death_signal_is_armed():
+    """gVisor arms PR_SET_PDEATHSIG and never delivers it: the watch must not depend on
+    whether arming worked."""
+    from bench.executors import PoolExecutor
+    pool = PoolExecutor(1)
+    try:
+        armed, threads = pool.result(pool.submit(_worker_state))
+    finally:
+        pool.shutdown()
+    if sys.platform.startswith("linux"):
+        assert armed
+    assert "watch-parent" in threads
+
+
+# a runner whose kernel takes the parent-death request and never sends the signal (gVisor)
+NO_SIGNAL_RUNNER = """
+import os, sys, time
+import bench.executors as ex
+ex._arm_parent_death_signal = lambda: True
+pool = ex.PoolExecutor(1)
+print(pool.result(pool.submit(os.getpid)), flush=True)
+time.sleep(60)
+"""
+
+
+@pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="needs /proc")
+def test_workers_die_with_a_killed_runner_without_the_death_signal():
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    proc = subprocess.Popen([sys.executable, "-c", NO_SIGNAL_RUNNER], cwd=ROOT, env=env,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    worker = None
+    try:
+        worker = int(proc.stdout.readline() or 0)
+        assert worker and _alive(worker), proc.stderr.read()
+        os.kill(proc.pid, signal.SIGKILL)
+        proc.wait()
+        assert _wait_for(lambda: not _alive(worker), timeout=5.0)   # the watch polls at 0.5 s
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+        if worker and _alive(worker):
+            os.kill(worker, signal.SIGKILL)
+
+
 @pytest.mark.slow
 def test_a_second_run_on_a_busy_folder_refuses_at_once(tiny, tmp_path, capsys):
     out = tmp_path / "run"
