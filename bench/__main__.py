@@ -96,13 +96,13 @@ def build_parser() -> argparse.ArgumentParser:
 
 def _spec_from_args(args):
     from bench.plan import RunSpec, parse_configs, parse_overrides, parse_worlds, read_log_set, resolve_algos
-    from bench.runner import read_run
+    from bench.results import RUN_NAME, read_run, run_spec
     if sum(bool(v) for v in (args.world, args.suite, args.logs)) > 1:
         raise InputError("give one of --world, --suite and --logs")
     given = (args.world, args.suite, args.logs, args.draws, args.min_coverage, args.algo,
              args.repeats, args.seed, args.noise, args.vary, args.shard)
     if args.resume:
-        stored = RunSpec.from_json(read_run(Path(args.resume))["spec"])
+        stored = run_spec(read_run(Path(args.resume)), Path(args.resume) / RUN_NAME)
         if all(v is None for v in given) and not args.config and not args.set:
             return stored
         base = stored

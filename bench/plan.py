@@ -329,9 +329,12 @@ def _log_world(path: Path, meta: dict) -> str:
     from sim.log import world_ref
     ref = world_ref(meta, path)
     if ref is None:
-        name = meta.get("world") or meta.get("world_source") or ""
-        raise InputError(f"{path}: meta.world: the log's world '{name}' is not a shipped world "
-                         "and its YAML file was not found (logs without a world cannot be scored)")
+        name, src = meta.get("world") or "", meta.get("world_source") or ""
+        where = (f"copy its YAML ({short(src)}) into the log's folder: a log's world is read "
+                 "only from there or the shipped worlds" if src else "logs without a world "
+                 "cannot be scored")
+        raise InputError(f"{path}: meta.world: the log's world {short(name)} is not a shipped "
+                         f"world and its YAML file is not in the log's folder; {where}")
     return ref
 
 

@@ -1,11 +1,10 @@
 """`write_report(DIR)`: summary.md, summary.csv and the figures, rebuilt from results.json."""
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 from bench.figures import write_figures
-from bench.results import RUN_NAME, read_rows
+from bench.results import RUN_NAME, read_rows, read_run
 from bench.tables import write_tables
 
 __all__ = ["write_report"]
@@ -19,11 +18,6 @@ def write_report(out_dir: str | Path, figures: bool = True) -> Path:
     """
     out_dir = Path(out_dir)
     rows = read_rows(out_dir)
-    run = None
-    if (out_dir / RUN_NAME).is_file():
-        try:
-            run = json.loads((out_dir / RUN_NAME).read_text())
-        except json.JSONDecodeError:
-            run = None
+    run = read_run(out_dir) if (out_dir / RUN_NAME).is_file() else None
     made = write_figures(out_dir, rows, run) if figures and rows else {}
     return write_tables(out_dir, rows, run, made)

@@ -26,13 +26,14 @@ from pathlib import Path
 
 import numpy as np
 
-from worlds.yamlio import InputError, atomic_write_bytes, atomic_write_text
+from worlds.paths import path_inside
+from worlds.yamlio import InputError, atomic_write_bytes, atomic_write_text, short
 from bench import cache
 from bench.executors import make_executor
 from bench.plan import (RunSpec, Task, config_dict, load_config_checked, load_plugins, make_tasks,
                         shard_tasks)
 from bench.progress import Progress
-from bench.results import RESULTS_NAME, RUN_NAME, ResultStore, jsonable
+from bench.results import RESULTS_NAME, RUN_NAME, ResultStore, jsonable, read_run, run_spec
 from bench.task import WorldInfo, compile_algorithm, execute, new_row, record_log, versions
 
 __all__ = ["run_benchmark", "RunOutcome", "load_worlds", "default_out_dir", "read_run",
@@ -68,11 +69,14 @@ def default_out_dir() -> Path:
 
 
 def map_path(out_dir: Path, world: str, algo: str, repeat: int) -> Path:
-    return Path(out_dir) / "maps" / world / algo / f"{int(repeat)}.npz"
+    """DIR/maps/WORLD/ALGO/REPEAT.npz; InputError when the names would lead outside DIR."""
+    return path_inside(out_dir, "maps", world, algo, f"{int(repeat)}.npz",
+                       what=f"{out_dir}: map of {short(world)}/{short(algo)}")
 
 
 def truth_path(out_dir: Path, world: str) -> Path:
-    return Path(out_dir) / "maps" / world / "truth.npz"
+    """DIR/maps/WORLD/truth.npz; InputError when the name would lead outside DIR."""
+    return path_inside(out_dir, "maps", world, "truth.npz", what=f"{out_dir}: truth of {short(world)}")
 
 
 def load_worlds(names: list[str]):
@@ -94,17 +98,6 @@ def load_worlds(names: list[str]):
         out[key] = w
         files[key] = cache.world_file(name)
     return out, files
-
-
-def read_run(out_dir: Path) -> dict:
-    """DIR/run.json as a dict; InputError if missing or malformed."""
-    p = Path(out_dir) / RUN_NAME
-    if not p.is_file():
-        raise InputError(f"{out_dir}: no {RUN_NAME} here: not a bench run directory")
-    try:
-        return json.loads(p.read_text())
-    except json.JSONDecodeError as err:
-        raise InputError(f"{p}: not valid JSON: {err}") from None
 
 
 def check_run_dir(out_dir: Path, resume: bool) -> None:
@@ -162,7 +155,7 @@ def read_truth(out_dir: Path, key: str):
 
 def _save_gt(out_dir: Path, key: str, seed: int, log) -> None:
     """True trajectory of the log (for the trajectory figure), once per world and log seed."""
-    p = Path(out_dir) / "maps" / key / f"gt_s{int(seed)}.npz"
+    p = path_inside(out_dir, "maps", key, f"gt_s{int(seed)}.npz", what=f"true trajectory of {short(key)}")
     if not p.exists() and log is not None and log.has_ground_truth:
         write_npz(p, times=log.gt_t, poses=log.gt_pose)
 
@@ -236,7 +229,7 @@ def _run_locked(spec: RunSpec, out_dir: Path, jobs, scheduler, resume, progress,
                 stream) -> RunOutcome:
     check_run_dir(out_dir, resume)
     previous = read_run(out_dir) if resume else None
-    if previous is not None and RunSpec.from_json(previous["spec"]) != spec:
+    if previous is not None and run_spec(previous, out_dir / RUN_NAME) != spec:
         raise InputError(f"--resume {out_dir}: the run was started with other arguments; "
                          "resume it without --world/--algo/--repeats/--seed/--noise/--vary/--config")
     load_plugins()

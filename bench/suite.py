@@ -22,12 +22,17 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from worlds.yamlio import InputError, _suggest, atomic_write_text, load_yaml
+from worlds.paths import check_name
+from worlds.yamlio import InputError, _suggest, atomic_write_text, load_yaml, short
 
 __all__ = ["Suite", "load_suite", "list_suites", "suite_dir", "DEFAULT_DRAWS"]
 
 DEFAULT_DRAWS = 3
 _KEYS = ["name", "description", "draws", "worlds"]
+# a suite of the limits runs for weeks; they keep a file of a few bytes from planning millions
+# of tasks (docs/formats.md, "Limits")
+MAX_DRAWS = 1000
+MAX_WORLDS = 1000
 _GENERATE_KEYS = ["generate", "seed", "size"]
 
 
@@ -71,24 +76,29 @@ def load_suite(name_or_path: str) -> Suite:
     for key in data:
         if key not in _KEYS:
             raise InputError(f"{where}: {key}: unknown key{_suggest(str(key), _KEYS)}")
-    name = data.get("name", p.stem)
-    if not isinstance(name, str) or not name.strip():
-        raise InputError(f"{where}: name: expected a string, got {name!r}")
+    if "name" in data:
+        name = check_name(data["name"], where, "name")
+    else:
+        name = check_name(p.stem, where, "name (missing; the file's name stands in)")
     desc = data.get("description") or ""
     if not isinstance(desc, str):
-        raise InputError(f"{where}: description: expected a string, got {desc!r}")
+        raise InputError(f"{where}: description: expected a string, got {short(desc)}")
     draws = data.get("draws", DEFAULT_DRAWS)
-    if isinstance(draws, bool) or not isinstance(draws, int) or draws < 1:
-        raise InputError(f"{where}: draws: expected an integer >= 1, got {draws!r}")
+    if isinstance(draws, bool) or not isinstance(draws, int) or not 1 <= draws <= MAX_DRAWS:
+        raise InputError(f"{where}: draws: expected an integer from 1 to {MAX_DRAWS}, "
+                         f"got {short(draws)}")
     items = data.get("worlds")
     if not isinstance(items, list) or not items:
         raise InputError(f"{where}: worlds: expected a non-empty list of worlds")
+    if len(items) > MAX_WORLDS:
+        raise InputError(f"{where}: worlds: {len(items):,} worlds, more than the limit of "
+                         f"{MAX_WORLDS}")
     worlds = []
     for i, item in enumerate(items):
         w = _world(item, where, f"worlds[{i}]", p.parent)
         if w not in worlds:
             worlds.append(w)
-    return Suite(name.strip(), desc, draws, tuple(worlds), str(p))
+    return Suite(name, desc, draws, tuple(worlds), str(p))
 
 
 def _world(item: Any, where: str, field: str, base: Path) -> str:
@@ -98,7 +108,7 @@ def _world(item: Any, where: str, field: str, base: Path) -> str:
         return _generated(item, where, field)
     if not isinstance(item, str) or not item.strip():
         raise InputError(f"{where}: {field}: expected a world name, a .yaml path or "
-                         f"{{generate: KIND, seed: S}}, got {item!r}")
+                         f"{{generate: KIND, seed: S}}, got {short(item)}")
     item = item.strip()
     if Path(item).suffix.lower() in (".yaml", ".yml") or "/" in item:
         p = (base / Path(item).expanduser()).resolve()
@@ -131,7 +141,7 @@ def _generator_key() -> str:
 
 def _generated(item: dict, where: str, field: str) -> str:
     """Write (once) the world a {generate, seed, size} entry stands for; its YAML path."""
-    from worlds.generate import generate_yaml
+    from worlds.generate import KINDS, generate_yaml
     from bench.cache import cache_dir
     for key in item:
         if key not in _GENERATE_KEYS:
@@ -140,14 +150,17 @@ def _generated(item: dict, where: str, field: str) -> str:
         raise InputError(f"{where}: {field}.generate: missing (the kind of world to generate)")
     seed = item.get("seed", 0)
     if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
-        raise InputError(f"{where}: {field}.seed: expected an integer >= 0, got {seed!r}")
+        raise InputError(f"{where}: {field}.seed: expected an integer >= 0, got {short(seed)}")
     size = item.get("size")
     if size is not None:
         if (not isinstance(size, list) or len(size) != 2
                 or any(isinstance(v, bool) or not isinstance(v, (int, float)) for v in size)):
-            raise InputError(f"{where}: {field}.size: expected [width, height] in m, got {size!r}")
+            raise InputError(f"{where}: {field}.size: expected [width, height] in m, got {short(size)}")
         size = (float(size[0]), float(size[1]))
     kind = item["generate"]
+    if kind not in KINDS:
+        raise InputError(f"{where}: {field}.generate: unknown kind {short(kind)}"
+                         f"{_suggest(str(kind), list(KINDS))}")
     key = hashlib.sha256(f"{kind}|{seed}|{size}|{_generator_key()}".encode()).hexdigest()[:16]
     out = cache_dir() / "generated" / f"{kind}-s{seed}-{key}.yaml"
     if not out.is_file():

@@ -351,15 +351,31 @@ def value_problem(log: SensorLog) -> str | None:
     return log_problem({name: getattr(log, name) for name in _ARRAYS}, log.meta)
 
 
+def _under_any(path: Path, roots: list[Path]) -> bool:
+    """True when `path` (resolved) lies inside one of the `roots` folders."""
+    return any(r.resolve() in path.parents for r in roots)
+
+
 def world_ref(meta: dict, log_path: str | Path | None = None) -> str | None:
     """The world a recorded log was made in, as `worlds.load_world` takes it: its YAML file
-    (meta world_source, as given or beside the log) or its shipped name (meta world); None
-    when neither can be found (a real robot's log)."""
-    from worlds import list_worlds
+    (meta world_source) or its shipped name (meta world); None when neither can be found (a
+    real robot's log).
+
+    A log may come from a stranger, so its world_source is followed only into the log's own
+    folder (or below; a file of that name beside the log also counts) and the shipped worlds:
+    never to any other file on this machine.
+    """
+    from worlds.load import list_worlds, world_dir
     src = str(meta.get("world_source") or "")
-    places = [Path(src)] + ([Path(log_path).parent / src] if log_path is not None else [])
-    for cand in places:
-        if src and cand.suffix in (".yaml", ".yml") and cand.is_file():
-            return str(cand.resolve())
+    if src and Path(src).suffix in (".yaml", ".yml"):
+        roots = [world_dir()]
+        places = [Path(src)]
+        if log_path is not None:
+            here = Path(log_path).resolve().parent
+            roots.append(here)
+            places = [here / src, here / Path(src).name] + places
+        for cand in places:
+            if cand.is_file() and _under_any(cand.resolve(), roots):
+                return str(cand.resolve())
     name = str(meta.get("world") or "")
     return name if name in list_worlds() else None

@@ -11,7 +11,8 @@ from importlib.metadata import entry_points
 from pathlib import Path
 from typing import Any, Callable, Mapping
 
-from worlds.yamlio import InputError, from_dict, load_yaml
+from worlds.paths import check_name
+from worlds.yamlio import InputError, from_dict, load_yaml, short
 from slam.base import check_algorithm_class
 
 __all__ = ["ENTRY_POINT_GROUP", "BUILTIN", "register", "algorithms", "names", "get", "ensure",
@@ -27,7 +28,10 @@ _plugins_loaded = False
 
 
 def register(name: str) -> Callable[[type], type]:
-    """Class decorator: make a Slam subclass available as `name` (checked against the contract)."""
+    """Class decorator: make a Slam subclass available as `name` (checked against the contract;
+    the name becomes part of result paths, so it follows the name rule of worlds.paths)."""
+    check_name(name, f"algorithm {short(name)}", "name")
+
     def deco(cls: type) -> type:
         check_algorithm_class(cls, name)
         cls.name = name

@@ -8,6 +8,7 @@ import sys
 from pathlib import Path
 
 from worlds.cli import Parser, check_out_dir, check_out_file, non_negative_int, positive_float, run_cli
+from worlds.paths import path_inside
 from worlds.yamlio import InputError
 
 
@@ -102,11 +103,12 @@ def cmd_render(world_arg: str, out: str, resolution: float | None = None, png: b
     d = check_out_dir(out)
     w = load_world(world_arg)
     grid = rasterize(w, resolution)
-    yp = d / f"{w.name}.yaml"
+    yp = path_inside(d, f"{w.name}.yaml", what=f"{world_arg}: name")
     image = write_map(grid, yp, image_format)
     if png:
         from worlds.plot import save_map_png
-        save_map_png(grid, d / f"{w.name}.png", title=f"{w.name}: ground truth")
+        save_map_png(grid, path_inside(d, f"{w.name}.png", what=f"{world_arg}: name"),
+                     title=f"{w.name}: ground truth")
     return yp, image
 
 

@@ -27,14 +27,17 @@ from worlds.coverage import wall_coverage
 from worlds.layouts import RECIPES, Draft, Rejected, mm, xy
 from worlds.load import world_from_dict
 from worlds.route import plan_route
-from worlds.yamlio import InputError, _suggest
+from worlds.yamlio import InputError, _suggest, short
 
-__all__ = ["KINDS", "DEFAULT_SIZE", "MIN_SIZE", "generate_world", "generate_yaml", "parse_size"]
+__all__ = ["KINDS", "DEFAULT_SIZE", "MIN_SIZE", "MAX_AREA", "generate_world", "generate_yaml", "parse_size"]
 
 KINDS = ("office", "warehouse", "hall", "loop")
 DEFAULT_SIZE = {"office": (10.0, 8.0), "warehouse": (12.0, 9.0), "hall": (9.0, 7.0), "loop": (12.0, 8.0)}
 # smallest W x H (m, outer wall centre lines) for which every recipe step still fits
 MIN_SIZE = {"office": (5.0, 4.0), "warehouse": (5.5, 4.5), "hall": (4.0, 3.0), "loop": (4.5, 4.0)}
+# largest area (m², outer wall centre lines): drawing and checking the route take time in
+# proportion to the area (a 20 x 16 m office: minutes), a huge --size would never end
+MAX_AREA = 1000.0
 
 RESOLUTION = 0.05
 # the shared output map (slam.mapper) inserts hits closer than 2 m only, so a route must pass
@@ -54,19 +57,22 @@ def _check_args(kind, seed, size) -> tuple[float, float]:
         raise InputError(f"kind: unknown kind {kind!r}, expected one of {', '.join(KINDS)}"
                          + (hint if "did you mean" in hint else ""))
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
-        raise InputError(f"seed: expected a non-negative integer, got {seed!r}")
+        raise InputError(f"seed: expected a non-negative integer, got {short(seed)}")
     if size is None:
         return DEFAULT_SIZE[kind]
     try:
         W, H = (float(v) for v in size)
     except (TypeError, ValueError):
-        raise InputError(f"size: expected (W, H) in metres, got {size!r}") from None
+        raise InputError(f"size: expected (W, H) in metres, got {short(size)}") from None
     if not (math.isfinite(W) and math.isfinite(H) and W > 0 and H > 0):
         raise InputError(f"size: must be positive, got {W:g} x {H:g}")
     W, H = mm(W), mm(H)
     mw, mh = MIN_SIZE[kind]
     if W < mw or H < mh:
         raise InputError(f"size: {W:g} x {H:g} m is too small for kind {kind} (minimum {mw:g} x {mh:g} m)")
+    if W * H > MAX_AREA:
+        raise InputError(f"size: {W:g} x {H:g} m is {W * H:,.0f} m², more than the {MAX_AREA:g} m² "
+                         "a generated world may have")
     return W, H
 
 
@@ -154,5 +160,5 @@ def parse_size(text: str) -> tuple[float, float]:
     """'10x8' or '10.5x7.25' -> (W, H) in metres; InputError naming --size otherwise."""
     m = _SIZE_TEXT.match(text)
     if not m:
-        raise InputError(f"--size: expected WxH in metres (e.g. 10x8), got {text!r}")
+        raise InputError(f"--size: expected WxH in metres (e.g. 10x8), got {short(text)}")
     return float(m[1]), float(m[2])

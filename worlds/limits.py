@@ -2,6 +2,7 @@
 
 MAX_GRID_CELLS: the largest grid (rows x cols) a world's true map, a map file or a SLAM's map
 may have: 50 million cells (400 MB per float64 layer; a 350 m x 350 m area at 0.05 m).
+MAX_COORDINATE: how far from the origin a position may be, 1,000 km in metres.
 MAX_ROUTE_CELLS: the largest free space (cells) the route planner takes on: 4 million cells
 (10,000 m² at 0.05 m); larger worlds need a `route:` in their YAML.
 Both can be raised for one process with the environment variables SLAM_BENCH_MAX_CELLS and
@@ -13,7 +14,14 @@ import os
 
 from worlds.yamlio import InputError
 
-__all__ = ["max_grid_cells", "max_route_cells", "check_grid_cells"]
+__all__ = ["max_grid_cells", "max_route_cells", "check_grid_cells", "MAX_COORDINATE",
+           "MAX_RESOLUTION", "check_coordinates"]
+
+# metres from the origin any position may lie (a world, a map's corner, a trajectory): far
+# beyond any building, near enough that sums of coordinates stay finite and exact to 0.1 mm
+MAX_COORDINATE = 1e6
+# the coarsest grid cell (m): coarser is a mistake, and products with cell counts overflow
+MAX_RESOLUTION = 100.0
 
 
 def _limit(env: str, default: int) -> int:
@@ -47,3 +55,15 @@ def check_grid_cells(rows: int, cols: int, where: str, cause: str) -> None:
     if rows * cols > limit:
         raise InputError(f"{where}: {cause} needs a grid of {rows:,} x {cols:,} cells, more than "
                          f"the limit of {limit:,} (raise it with SLAM_BENCH_MAX_CELLS)")
+
+
+def check_coordinates(values, where: str, field: str) -> None:
+    """InputError '<where>: <field>: ...' unless every value is finite and within
+    MAX_COORDINATE metres of 0."""
+    import numpy as np
+    v = np.asarray(values, dtype=np.float64)
+    bad = ~np.isfinite(v) | (np.abs(v) > MAX_COORDINATE)
+    if np.any(bad):
+        worst = float(v[bad].flat[0])
+        raise InputError(f"{where}: {field}: {worst!r} is not a position within {MAX_COORDINATE:g} m "
+                         "of the origin")

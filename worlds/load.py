@@ -18,10 +18,19 @@ import numpy as np
 import shapely
 from shapely.geometry import Point
 
+from worlds.limits import MAX_COORDINATE, check_coordinates
 from worlds.model import ROBOT_RADIUS, Wall, World, make_obstacle
-from worlds.yamlio import InputError, _suggest, load_yaml
+from worlds.paths import check_name
+from worlds.yamlio import InputError, _suggest, load_yaml, short
 
-__all__ = ["load_world", "list_worlds", "world_from_dict", "world_dir", "reachable_region"]
+__all__ = ["load_world", "list_worlds", "world_from_dict", "world_dir", "reachable_region",
+           "MAX_OBSTACLES", "MAX_WALL_POINTS", "MAX_CIRCLE_SIDES"]
+
+# Caps on a world's size, so that a small file cannot take gigabytes (docs/formats.md,
+# "Limits"); the largest generated world holds a few hundred of each
+MAX_OBSTACLES = 2_000
+MAX_WALL_POINTS = 20_000
+MAX_CIRCLE_SIDES = 360
 
 _TOP_KEYS = ["name", "description", "resolution", "walls", "obstacles", "robot", "route"]
 _DEFAULT_THICKNESS = 0.10
@@ -60,14 +69,17 @@ def load_world(name_or_path: str | os.PathLike) -> World:
 
 def _num(v: Any, where: str, field: str) -> float:
     if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
-        raise InputError(f"{where}: {field}: expected a number, got {v!r}")
+        raise InputError(f"{where}: {field}: expected a number, got {short(v)}")
+    if abs(v) > MAX_COORDINATE:
+        # lengths and positions alike: shapely and the grids overflow long before 1e308
+        raise InputError(f"{where}: {field}: {short(v)} is beyond {MAX_COORDINATE:g} m")
     return float(v)
 
 
 def _pos(v: Any, where: str, field: str) -> float:
     x = _num(v, where, field)
     if x <= 0:
-        raise InputError(f"{where}: {field}: must be positive, got {v!r}")
+        raise InputError(f"{where}: {field}: must be positive, got {short(v)}")
     return x
 
 
@@ -75,13 +87,14 @@ def _point(v: Any, where: str, field: str) -> list[float]:
     if (not isinstance(v, (list, tuple)) or len(v) != 2
             or any(isinstance(c, bool) or not isinstance(c, (int, float)) or not math.isfinite(c)
                    for c in v)):
-        raise InputError(f"{where}: {field}: expected a point [x, y], got {v!r}")
+        raise InputError(f"{where}: {field}: expected a point [x, y], got {short(v)}")
+    check_coordinates(v, where, field)
     return [float(v[0]), float(v[1])]
 
 
 def _points(v: Any, where: str, field: str, minimum: int) -> np.ndarray:
     if not isinstance(v, (list, tuple)):
-        raise InputError(f"{where}: {field}: expected a list of points [[x, y], ...], got {v!r}")
+        raise InputError(f"{where}: {field}: expected a list of points [[x, y], ...], got {short(v)}")
     pts = [_point(p, where, f"{field}[{i}]") for i, p in enumerate(v)]
     if len(pts) < minimum:
         raise InputError(f"{where}: {field}: expected at least {minimum} point{'s' if minimum > 1 else ''}, "
@@ -92,7 +105,7 @@ def _points(v: Any, where: str, field: str, minimum: int) -> np.ndarray:
 def _mapping(v: Any, where: str, field: str, allowed: list[str], required: list[str] = ()) -> dict:
     if not isinstance(v, dict):
         raise InputError(f"{where}: {field}: expected a mapping with keys {', '.join(allowed)}, "
-                         f"got {v!r}")
+                         f"got {short(v)}")
     for key in v:
         if key not in allowed:
             raise InputError(f"{where}: {field}.{key}: unknown key{_suggest(str(key), allowed)}")
@@ -107,7 +120,12 @@ def _walls(v: Any, where: str) -> tuple[Wall, ...]:
     thick = _pos(v.get("thickness", _DEFAULT_THICKNESS), where, "walls.thickness")
     lines = v["polylines"]
     if not isinstance(lines, (list, tuple)):
-        raise InputError(f"{where}: walls.polylines: expected a list of polylines, got {lines!r}")
+        raise InputError(f"{where}: walls.polylines: expected a list of polylines, got {short(lines)}")
+    count = sum(len(line) if isinstance(line, (list, tuple)) else
+                len(line.get("points") or ()) if isinstance(line, dict) else 1 for line in lines)
+    if count > MAX_WALL_POINTS:
+        raise InputError(f"{where}: walls.polylines: {count:,} points, more than the limit of "
+                         f"{MAX_WALL_POINTS:,}")
     walls = []
     for i, line in enumerate(lines):
         field = f"walls.polylines[{i}]"
@@ -127,7 +145,10 @@ def _walls(v: Any, where: str) -> tuple[Wall, ...]:
 
 def _obstacles(v: Any, where: str) -> tuple:
     if not isinstance(v, (list, tuple)):
-        raise InputError(f"{where}: obstacles: expected a list, got {v!r}")
+        raise InputError(f"{where}: obstacles: expected a list, got {short(v)}")
+    if len(v) > MAX_OBSTACLES:
+        raise InputError(f"{where}: obstacles: {len(v):,} obstacles, more than the limit of "
+                         f"{MAX_OBSTACLES:,}")
     kinds = ["polygon", "circle", "box"]
     out = []
     for i, item in enumerate(v):
@@ -146,14 +167,16 @@ def _obstacles(v: Any, where: str) -> tuple:
                       "radius": _pos(val["radius"], where, f"{f}.radius")}
             if "sides" in val:
                 sides = val["sides"]
-                if isinstance(sides, bool) or not isinstance(sides, int) or sides < 8:
-                    raise InputError(f"{where}: {f}.sides: expected an integer >= 8, got {sides!r}")
+                if (isinstance(sides, bool) or not isinstance(sides, int)
+                        or not 8 <= sides <= MAX_CIRCLE_SIDES):
+                    raise InputError(f"{where}: {f}.sides: expected an integer from 8 to "
+                                     f"{MAX_CIRCLE_SIDES}, got {short(sides)}")
                 params["sides"] = sides
         else:
             val = _mapping(val, where, f, ["center", "size", "yaw"], ["center", "size"])
             size = _point(val["size"], where, f"{f}.size")
             if min(size) <= 0:
-                raise InputError(f"{where}: {f}.size: must be positive, got {val['size']!r}")
+                raise InputError(f"{where}: {f}.size: must be positive, got {short(val['size'])}")
             params = {"center": _point(val["center"], where, f"{f}.center"), "size": size,
                       "yaw": _num(val.get("yaw", 0.0), where, f"{f}.yaw")}
         obst = make_obstacle(kind, params)
@@ -170,7 +193,8 @@ def _start(v: Any, where: str) -> np.ndarray:
     if (not isinstance(s, (list, tuple)) or len(s) != 3
             or any(isinstance(c, bool) or not isinstance(c, (int, float)) or not math.isfinite(c)
                    for c in s)):
-        raise InputError(f"{where}: robot.start: expected a pose [x, y, yaw], got {s!r}")
+        raise InputError(f"{where}: robot.start: expected a pose [x, y, yaw], got {short(s)}")
+    check_coordinates(s[:2], where, "robot.start")
     yaw = math.atan2(math.sin(s[2]), math.cos(s[2]))
     if yaw == -math.pi:
         yaw = math.pi
@@ -194,21 +218,22 @@ def world_from_dict(data: Any, where: str = "<world>", default_name: str = "worl
     """Build and check a World from parsed YAML; errors name `where` and the field."""
     if not isinstance(data, dict):
         raise InputError(f"{where}: top level: expected a mapping with keys "
-                         f"{', '.join(_TOP_KEYS)}, got {data!r}")
+                         f"{', '.join(_TOP_KEYS)}, got {short(data)}")
     for key in data:
         if key not in _TOP_KEYS:
             raise InputError(f"{where}: {key}: unknown key{_suggest(str(key), _TOP_KEYS)}")
     for key in ("walls", "robot"):
         if key not in data:
             raise InputError(f"{where}: {key}: missing required field")
-    name = data.get("name", default_name)
-    if not isinstance(name, str) or not name:
-        raise InputError(f"{where}: name: expected a string, got {name!r}")
+    if "name" in data:
+        name = check_name(data["name"], where, "name")
+    else:
+        name = check_name(default_name, where, "name (missing; the file's name stands in)")
     desc = data.get("description", "")
     if desc is None:
         desc = ""
     if not isinstance(desc, str):
-        raise InputError(f"{where}: description: expected a string, got {desc!r}")
+        raise InputError(f"{where}: description: expected a string, got {short(desc)}")
     res = _pos(data.get("resolution", 0.05), where, "resolution")
     walls = _walls(data["walls"], where)
     obstacles = _obstacles(data.get("obstacles") or [], where)

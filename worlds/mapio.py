@@ -33,8 +33,8 @@ import numpy as np
 import yaml
 
 from worlds.grid import Grid
-from worlds.limits import check_grid_cells
-from worlds.yamlio import InputError, atomic_write_bytes, atomic_write_text, load_yaml
+from worlds.limits import MAX_RESOLUTION, check_coordinates, check_grid_cells
+from worlds.yamlio import InputError, atomic_write_bytes, atomic_write_text, load_yaml, short
 
 __all__ = ["read_map", "write_map", "read_pgm", "encode_pgm", "grid_to_pixels",
            "SAVE_OCCUPIED_THRESH", "SAVE_FREE_THRESH", "PIXEL_FREE", "PIXEL_OCCUPIED",
@@ -163,16 +163,18 @@ def read_map(yaml_path: str | os.PathLike) -> Grid:
         if key not in meta:
             raise InputError(f"{where}: {key}: missing required field")
     if not isinstance(meta["image"], str) or not meta["image"]:
-        raise InputError(f"{where}: image: expected a file name, got {meta['image']!r}")
+        raise InputError(f"{where}: image: expected a file name, got {short(meta['image'])}")
     res = _number(meta, "resolution", where)
-    if res <= 0:
-        raise InputError(f"{where}: resolution: must be positive, got {res}")
+    if not 0 < res <= MAX_RESOLUTION:
+        raise InputError(f"{where}: resolution: expected a cell size above 0 and at most "
+                         f"{MAX_RESOLUTION:g} m, got {res}")
     origin = meta["origin"]
     if (not isinstance(origin, (list, tuple)) or len(origin) not in (2, 3)
             or any(isinstance(v, bool) or not isinstance(v, (int, float)) for v in origin)):
-        raise InputError(f"{where}: origin: expected [x, y, yaw], got {origin!r}")
+        raise InputError(f"{where}: origin: expected [x, y, yaw], got {short(origin)}")
     if not np.all(np.isfinite(origin)):
-        raise InputError(f"{where}: origin: expected finite numbers, got {origin!r}")
+        raise InputError(f"{where}: origin: expected finite numbers, got {short(origin)}")
+    check_coordinates(origin[:2], where, "origin")
     origin = [float(v) for v in origin] + ([0.0] if len(origin) == 2 else [])
     occ_th = _number(meta, "occupied_thresh", where)
     free_th = _number(meta, "free_thresh", where)
@@ -181,10 +183,10 @@ def read_map(yaml_path: str | os.PathLike) -> Grid:
                          "expected 0 <= free_thresh <= occupied_thresh <= 1")
     negate = meta.get("negate", 0)
     if negate not in (0, 1) or isinstance(negate, float):
-        raise InputError(f"{where}: negate: expected 0 or 1, got {negate!r}")
+        raise InputError(f"{where}: negate: expected 0 or 1, got {short(negate)}")
     mode = meta.get("mode", "trinary")
     if mode not in ("trinary", "scale", "raw"):
-        raise InputError(f"{where}: mode: expected trinary, scale or raw, got {mode!r}")
+        raise InputError(f"{where}: mode: expected trinary, scale or raw, got {short(mode)}")
 
     image = Path(meta["image"])
     if not image.is_absolute():
@@ -219,6 +221,8 @@ def read_map(yaml_path: str | os.PathLike) -> Grid:
             warnings.warn(f"{where}: free_thresh {free_th} reads the unknown value {PIXEL_UNKNOWN} "
                           f"as free (map_saver's unknown is p = {50 / 255:.4f}); "
                           "unknown cells of this map will count as free", stacklevel=2)
+    check_coordinates(np.asarray(origin[:2]) + res * np.array(pix.shape[::-1]), where,
+                      "origin + image size x resolution (the map's far corner)")
     # image rows run top to bottom; grid row 0 is the bottom row
     return Grid(prob[::-1].copy(), res, np.asarray(origin))
 

@@ -44,7 +44,8 @@ def check_name(value: object, where: str, field: str) -> str:
 
 
 def path_inside(root: str | os.PathLike, *parts: str | os.PathLike, what: str = "") -> Path:
-    """root/parts..., resolved; InputError when it lands outside `root` (resolved too).
+    """root/parts... as joined (so that `relative_to(root)` works); InputError when, resolved,
+    it lands outside `root` (resolved too).
 
     what: how the error names the path's source (default: the joined relative path).
     """
@@ -54,4 +55,4 @@ def path_inside(root: str | os.PathLike, *parts: str | os.PathLike, what: str = 
         rel = os.path.join(*map(str, parts)) if parts else ""
         raise InputError(f"{what or short(rel)}: would write {short(str(target))}, outside the "
                          f"folder {short(str(base))}")
-    return target
+    return Path(root).joinpath(*parts)

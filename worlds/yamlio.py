@@ -30,6 +30,8 @@ MAX_YAML_BYTES = 4 * 1024 * 1024
 MAX_YAML_DEPTH = 64
 _MAX_MESSAGE = 400
 _MAX_QUOTE = 100
+# the largest integer a config may hold: exact as a float, fits the compiled kernels' int64
+_MAX_INT = 2**53
 
 
 class InputError(ValueError):
@@ -149,10 +151,12 @@ def _convert(tp: Any, value: Any, where: str, field: str) -> Any:
             raise InputError(f"{where}: {field}: expected true or false, got {short(value)}")
         return value
     if tp is int:
+        if isinstance(value, float) and value.is_integer():
+            value = int(value)
         if isinstance(value, bool) or not isinstance(value, int):
-            if isinstance(value, float) and value.is_integer():
-                return int(value)
             raise InputError(f"{where}: {field}: expected an integer, got {short(value)}")
+        if abs(value) > _MAX_INT:
+            raise InputError(f"{where}: {field}: {short(value)} is beyond {_MAX_INT:,} (2^53)")
         return value
     if tp is float:
         if isinstance(value, bool) or not isinstance(value, (int, float)):
@@ -275,7 +279,7 @@ def atomic_write_bytes(path: str | os.PathLike, data: bytes,
     p = Path(path)
     if root is not None:
         from worlds.paths import path_inside
-        p = path_inside(root, p)
+        p = path_inside(root, p.absolute())
     try:
         _write_and_rename(p, data)
     except OSError as err:

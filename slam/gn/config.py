@@ -60,8 +60,9 @@ class GnConfig:
     def __post_init__(self):
         if self.map_resolution <= 0:
             raise ValueError(f"map_resolution must be positive, got {self.map_resolution}")
-        if self.map_multi_res_levels < 1:
-            raise ValueError(f"map_multi_res_levels must be >= 1, got {self.map_multi_res_levels}")
+        if not 1 <= self.map_multi_res_levels <= 8:
+            # level 8 has 128x the cell size: 6.4 m cells at the default 0.05 m
+            raise ValueError(f"map_multi_res_levels must be from 1 to 8, got {self.map_multi_res_levels}")
         if not 0 < self.update_factor_free < 0.5 < self.update_factor_occupied < 1:
             raise ValueError("need 0 < update_factor_free < 0.5 < update_factor_occupied < 1")
         if self.iterations_finest < 1 or self.iterations_coarse < 0:

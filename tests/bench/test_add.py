@@ -270,6 +270,7 @@ def test_render_over_a_run_of_given_logs(tmp_path, tiny, capsys, monkeypatch):
                  "--out", str(tmp_path / "rec"), "--no-progress", "--no-figures"]) == 0
     src = sorted(glob.glob(str(cache_dir() / "tiny-s0-*.npz")))[0]
     shutil.copy(src, logs / "tiny.npz")
+    shutil.copy(tiny, logs)   # a log's world is read from the log's folder
     assert main(["run", "--logs", str(logs), "--algo", "oracle", "--repeats", "1", "--jobs", "1",
                  "--out", str(out), "--no-progress", "--no-figures"]) == 0
     _, tum = _oracle_files(out, tmp_path)

@@ -1,19 +1,23 @@
 """`bench run --logs DIR` runs on recorded logs as they are; `--set ALGO.FIELD=VALUE` overrides
 one config field."""
 import json
+import shutil
+from pathlib import Path
 
 import pytest
 
 import sim
 import worlds
 from bench.__main__ import main
+from tests.bench.conftest import TINY
 
 
 @pytest.fixture(scope="module")
 def log_dir(tmp_path_factory):
     d = tmp_path_factory.mktemp("logs")
     from tests.bench.conftest import TINY
-    world = worlds.load_world(TINY)
+    shutil.copy(TINY, d)   # a log's world is read from the log's folder (or the shipped ones)
+    world = worlds.load_world(d / Path(TINY).name)
     for seed in (3, 5):
         sim.write_log(sim.record(world, seed=seed), d / f"tiny_{seed}.npz")
     return d
@@ -46,6 +50,28 @@ def test_a_log_whose_world_is_unknown_is_one_line_error(log_dir, tmp_path, capsy
                  "--out", str(tmp_path / "o")]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "lost.npz: meta.world" in err[0]
+
+
+def test_a_log_never_leads_to_a_world_file_outside_its_folder(log_dir, tmp_path, capsys):
+    """A stranger's log names a world YAML elsewhere on the machine: it is not read."""
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    shutil.copy(log_dir / Path(TINY).name, elsewhere / "w.yaml")
+    logs = tmp_path / "logs"
+    logs.mkdir()
+    log = sim.read_log(log_dir / "tiny_3.npz")
+    log.meta.update(world="w", world_source=str(elsewhere / "w.yaml"))
+    sim.write_log(log, logs / "a.npz")
+    log.meta.update(world_source="../elsewhere/w.yaml")
+    sim.write_log(log, logs / "b.npz")
+    for name in ("a.npz", "b.npz"):
+        assert main(["run", "--logs", str(logs / name), "--algo", "fake_map",
+                     "--out", str(tmp_path / "o")]) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and f"{name}: meta.world" in err[0] and "copy its YAML" in err[0]
+    shutil.copy(elsewhere / "w.yaml", logs / "w.yaml")   # beside the log: read
+    assert sim.log.world_ref(sim.read_log(logs / "a.npz").meta, logs / "a.npz") == str(
+        (logs / "w.yaml").resolve())
 
 
 def test_set_overrides_one_field_and_is_checked(log_dir, tmp_path, capsys):

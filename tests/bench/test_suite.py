@@ -35,12 +35,17 @@ def test_suite_file_names_shipped_and_relative_worlds(tmp_path, tiny):
                                              "(did you mean"),
     ("worlds: [nowhere/w.yaml]\n", "mine.yaml: worlds[0]: world file"),
     ("worlds: [rectangle_s]\ndraw: 2\n", "mine.yaml: draw: unknown key (did you mean 'draws'?)"),
-    ("worlds: [rectangle_s]\ndraws: 0\n", "mine.yaml: draws: expected an integer >= 1"),
+    ("worlds: [rectangle_s]\ndraws: 0\n", "mine.yaml: draws: expected an integer from 1 to 1000"),
+    ("worlds: [rectangle_s]\ndraws: 1000000\n", "mine.yaml: draws: expected an integer from 1 to 1000, got 1000000"),
+    ("name: ../x\nworlds: [rectangle_s]\n", "mine.yaml: name: '../x' starts with a dot"),
+    ("worlds: [rectangle_s]\ndescription: &a [x, *a]\n", "not valid YAML (line 2): aliases"),
+    ("worlds: [{generate: ../x, seed: 1}]\n", "mine.yaml: worlds[0].generate: unknown kind '../x' (allowed: office"),
     ("worlds: []\n", "mine.yaml: worlds: expected a non-empty list"),
     ("worlds: [{generate: office, sed: 1}]\n", "mine.yaml: worlds[0].sed: unknown key"),
     ("worlds: [{seed: 1}]\n", "mine.yaml: worlds[0].generate: missing"),
     ("worlds: [{generate: office, seed: -1}]\n", "mine.yaml: worlds[0].seed: expected an integer >= 0"),
-    ("worlds: [{generate: offices, seed: 1}]\n", "mine.yaml: worlds[0]:"),
+    ("worlds: [{generate: offices, seed: 1}]\n", "mine.yaml: worlds[0].generate: unknown kind "
+                                                "'offices' (did you mean 'office'?)"),
     ("worlds: [{generate: office, seed: 1, size: [1, 1]}]\n", "mine.yaml: worlds[0]:"),
 ])
 def test_bad_suite_file_is_one_line_naming_file_and_field(tmp_path, text, msg):

@@ -142,9 +142,10 @@ def test_circle_with_sides_is_a_regular_polygon(tmp_path):
     poly = load_world(_write(tmp_path, d, "ok.yaml")).obstacles[0].polygon
     assert len(poly.exterior.coords) == 21
     assert poly.area == pytest.approx(0.5 * 20 * 0.01 * math.sin(2 * math.pi / 20))
-    for bad in (7, 2.5, True):
+    for bad in (7, 2.5, True, 361, 100_000_000):
         d = _with(obstacles=[{"circle": {"center": [1.5, 1.0], "radius": 0.1, "sides": bad}}])
-        assert "bad.yaml: obstacles[0].circle.sides: expected an integer >= 8" in _error(tmp_path, d)
+        assert ("bad.yaml: obstacles[0].circle.sides: expected an integer from 8 to 360"
+                in _error(tmp_path, d))
 
 
 def test_unknown_top_key(tmp_path):
