@@ -12,13 +12,14 @@ from pathlib import Path
 
 import numpy as np
 
+from worlds.limits import MAX_COORDINATE
 from worlds.yamlio import InputError, atomic_write_text
 
 __all__ = ["read_tum", "write_tum", "yaw_from_quaternion", "read_number_rows", "MAX_COORD_M",
            "MAX_TIME_S", "MAX_QUATERNION"]
 
-# 1000 km: no 2D lidar map is that large; beyond it a value is a broken writer's or hostile
-MAX_COORD_M = 1e6
+# positions: the bound every reader of positions shares (worlds.limits)
+MAX_COORD_M = MAX_COORDINATE
 # seconds: Unix time until the year 2286; a file in nanoseconds (1.7e18) is refused instead
 # of being read as a trajectory 50 billion years long
 MAX_TIME_S = 1e10
