@@ -38,6 +38,10 @@ FORMAT_VERSION = 1
 # the arrays of one log, as float64: 2 GiB holds an hour of a 1080-beam lidar at 40 Hz
 # (1.2 GB) and is some 180 times the largest simulated log (swirl_l, 12 MB)
 MAX_LOG_BYTES = 2 * 1024 ** 3
+# sensor arrays deflate by less than 10x (the cached logs: 3.5-9x); a large member that
+# inflates 200x is a bomb meant to fill memory below MAX_LOG_BYTES
+_BOMB_RATIO = 200
+_BOMB_MIN_BYTES = 64 * 1024 ** 2
 # the simulator writes 1-2 kB of meta; importers a few kB more
 MAX_META_CHARS = 1_000_000
 # deeper than the YAML cap (64: configs stored in JSON files may reach it), far below
@@ -272,6 +276,10 @@ def _checked_shapes(zf: zipfile.ZipFile, where: str) -> dict[str, tuple]:
     shapes, total = {}, 0
     for name in _ARRAYS:
         info = zf.getinfo(f"{name}.npy")
+        if info.file_size > _BOMB_MIN_BYTES and info.file_size > _BOMB_RATIO * info.compress_size:
+            raise InputError(f"{where}: {info.filename}: {info.compress_size:,} compressed bytes "
+                             f"inflate to {info.file_size:,}, more than {_BOMB_RATIO} times: a zip "
+                             "bomb, not sensor data")
         shape, dtype = _member_header(zf, info, where)
         if dtype.kind not in "biuf":
             raise InputError(f"{where}: {info.filename}: expected numbers, got dtype {dtype}")

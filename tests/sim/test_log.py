@@ -117,6 +117,23 @@ def test_a_log_above_the_size_cap_is_refused_naming_the_member(tmp_path, monkeyp
     assert not (tmp_path / "w.npz").exists()
 
 
+def test_a_bomb_below_the_size_cap_is_refused_by_its_inflation(tmp_path, monkeypatch):
+    """Consistent shapes and sizes under MAX_LOG_BYTES, but zeros that inflate a thousandfold:
+    refused from the zip directory before the array is read (a 1.5 GB bomb of 1.7 MB took
+    1.5 GB before)."""
+    import sim.log
+    monkeypatch.setattr(sim.log, "_BOMB_MIN_BYTES", 1_000_000)
+    log = _log(n=300)
+    n = 20_000
+    bomb = _zip(tmp_path / "bomb.npz", _members(log, scan_t=np.arange(n) * 0.01,
+                                             scan_ranges=np.zeros((n, 90))))
+    err, peak = _peak_bytes(lambda: read_log(bomb))
+    assert re.fullmatch(rf"{re.escape(str(bomb))}: scan_ranges.npy: [\d,]+ compressed bytes "
+                        r"inflate to 14,400,128, more than 200 times: a zip bomb, not sensor data",
+                        str(err))
+    assert peak < 1_000_000
+
+
 def test_a_member_declaring_more_than_its_array_needs_is_refused(tmp_path):
     """A small header followed by megabytes: the zip's declared size (ZipInfo.file_size)
     must be what the header's array needs."""
