@@ -20,7 +20,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from worlds.yamlio import InputError, parse_yaml, short, to_dict
+from worlds.yamlio import InputError, set_override, short, to_dict
 from slam.registry import ENTRY_POINT_GROUP
 
 __all__ = ["RunSpec", "Task", "VARY", "parse_worlds", "resolve_algos", "load_plugins",
@@ -275,14 +275,10 @@ def parse_overrides(items: list[str] | None, algos: list[str]) -> dict[str, dict
             raise InputError(f"--set expects ALGO.FIELD=VALUE (e.g. pf.particles=50), got '{item}'")
         if algo not in algos:
             raise InputError(f"--set {item}: algorithm '{algo}' is not in this run ({', '.join(algos)})")
-        parsed = parse_yaml(value, f"--set {short(item)}")
-        node = out.setdefault(algo, {})
-        *parents, leaf = path.split(".")
-        for p in parents:
-            node = node.setdefault(p, {})
-            if not isinstance(node, dict):
-                raise InputError(f"--set {short(item)}: {algo}.{p} was set to a value above")
-        node[leaf] = parsed
+        try:
+            set_override(out.setdefault(algo, {}), f"{path}={value}")
+        except InputError as err:
+            raise InputError(f"--set {short(item)}: {str(err).split(': ', 1)[-1]}") from None
     for algo, over in out.items():
         try:
             load_config_checked(algo, None, over)

@@ -238,11 +238,12 @@ class ResultStore:
         self.rows[row_key(row)] = row
         self.save()
 
-    def save(self) -> None:
-        rows = [self.rows[k] for k in sorted(self.rows)]
-        text = json.dumps({"format": FORMAT, "rows": rows}, indent=1, sort_keys=False)
-        # absolute: atomic_write_text joins a relative path to root (runs/x/runs/x/...)
-        atomic_write_text(self.path.absolute(), text + "\n", root=self.dir)
-
     def sorted_rows(self) -> list[dict]:
+        """The rows in key order (world, algo, repeat), as results.json holds them."""
         return [self.rows[k] for k in sorted(self.rows)]
+
+    def save(self) -> None:
+        rows = self.sorted_rows()
+        text = json.dumps({"format": FORMAT, "rows": rows}, indent=1, sort_keys=False)
+        atomic_write_text(self.path, text + "\n", root=self.dir)
+

@@ -67,9 +67,6 @@ class Relations:
     def __len__(self) -> int:
         return len(self.t1)
 
-    def subset(self, mask: np.ndarray) -> "Relations":
-        return Relations(self.t1[mask], self.t2[mask], self.delta[mask])
-
 
 def read_relations(path: str | os.PathLike) -> Relations:
     """Read a relations text file (`t1 t2 x y z roll pitch yaw` a line, any blanks between).

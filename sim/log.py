@@ -1,6 +1,6 @@
 """SensorLog: the recorded sensor data every SLAM consumes, and its versioned .npz file.
 
-File (DESIGN.md): one .npz with a JSON string `meta` and the arrays
+File (docs/formats.md): one .npz with a JSON string `meta` and the arrays
 scan_t (N), scan_ranges (N x beams, inf = no return), scan_angles (beams),
 odom_t (M), odom_pose (M x 3), odom_twist (M x 2: v, w), imu_t (K), imu_gyro (K),
 imu_accel (K x 2), imu_yaw (K), gt_t (L), gt_pose (L x 3).

@@ -1,4 +1,4 @@
-"""SLAM result files (DESIGN.md): DIR/map.yaml + map.pgm (ROS map_server pair, written by
+"""SLAM result files (docs/formats.md): DIR/map.yaml + map.pgm (ROS map_server pair, written by
 worlds.mapio.write_map), DIR/trajectory.tum (TUM: t x y z qx qy qz qw, evo-readable),
 DIR/stats.json (wall time, scans processed, real-time factor, ...), DIR/config.yaml (the
 effective config). read_result reads the directory back.

@@ -101,7 +101,7 @@ def _checked(data: dict) -> dict:
 
 
 def generate_world(kind: str, seed: int, size: tuple[float, float] | None = None) -> dict:
-    """Plain World YAML data (see DESIGN.md) of a `kind` world drawn from `seed`.
+    """Plain World YAML data (docs/worlds.md) of a `kind` world drawn from `seed`.
 
     kind: one of KINDS; seed: int >= 0; size: (W, H) m of the outer walls' centre lines,
     default DEFAULT_SIZE[kind], at least MIN_SIZE[kind]. Coordinates in m, rounded to mm.

@@ -1,6 +1,6 @@
 """Grid: the one occupancy-map type every stage shares.
 
-Conventions (DESIGN.md): `prob[row, col]`, row 0 at the bottom (y grows with row),
+Conventions (docs/formats.md): `prob[row, col]`, row 0 at the bottom (y grows with row),
 probabilities in [0, 1], NaN = unknown. `origin` is the world pose (x, y, yaw) of the
 lower-left corner of cell (0, 0), as in ROS map_server. A cell is occupied at
 p >= occupied_thresh (default 0.65) and free at p <= free_thresh (default 0.2), the

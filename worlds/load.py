@@ -1,6 +1,6 @@
 """World YAML -> World, with errors that name the file, the field and the problem.
 
-Schema (DESIGN.md): name, description, resolution, walls {thickness, polylines},
+Schema (docs/worlds.md): name, description, resolution, walls {thickness, polylines},
 obstacles [{polygon} | {circle: {center, radius, sides}} | {box: {center, size, yaw}}],
 robot {start: [x, y, yaw]}, route [[x, y], ...].  Besides the types, a world is checked
 for: a free region enclosed by walls around the start; a start pose at least the robot

@@ -253,12 +253,15 @@ def set_override(data: dict, override: str) -> dict:
     """Apply one command-line override `key.path=value` to nested plain data, in place: the
     value is read as YAML (`1e5`, `true`, `[1, 2]`), missing levels are created. Returns data."""
     if "=" not in override:
-        raise InputError(f"override {override!r}: expected key.path=value")
+        raise InputError(f"override {short(override)}: expected key.path=value")
     key, value = override.split("=", 1)
     parts = key.strip().split(".")
     d = data
-    for p in parts[:-1]:
+    for i, p in enumerate(parts[:-1]):
         d = d.setdefault(p, {})
+        if not isinstance(d, dict):
+            raise InputError(f"override {short(override)}: {'.'.join(parts[:i + 1])} holds a "
+                             "value, not a block of fields")
     d[parts[-1]] = parse_yaml(value, f"override {short(override)}")
     return data
 

@@ -47,10 +47,6 @@ class TiledMaps:
         self.tables = self.tables[np.asarray(ancestors)]
         self._recount()
 
-    def keep_only(self, i: int) -> None:
-        """Drop every particle but i (used to build single maps)."""
-        self.resample(np.array([i]))
-
     def _recount(self) -> None:
         t = self.tables[self.tables >= 0]
         self.refcount = np.bincount(t, minlength=len(self.pool)).astype(np.int32)
@@ -91,20 +87,6 @@ class TiledMaps:
         for a, b in zip(*np.nonzero(self.tables[i] >= 0)):
             out[a * t:(a + 1) * t, b * t:(b + 1) * t] = self.pool[self.tables[i, a, b]]
         return out
-
-    def dense_bbox(self, i: int) -> tuple[np.ndarray, int, int]:
-        """Counters of particle i (as dense()) over the bounding box of its tiles, with the
-        row and column of the box's first cell."""
-        t = self.tile
-        a, b = np.nonzero(self.tables[i] >= 0)
-        if len(a) == 0:
-            return np.zeros((0, 0, N_FIELDS)), 0, 0
-        a0, b0 = a.min(), b.min()
-        out = np.zeros(((a.max() - a0 + 1) * t, (b.max() - b0 + 1) * t, N_FIELDS))
-        for aa, bb in zip(a, b):
-            out[(aa - a0) * t:(aa - a0 + 1) * t, (bb - b0) * t:(bb - b0 + 1) * t] = \
-                self.pool[self.tables[i, aa, bb]]
-        return out, int(a0 * t), int(b0 * t)
 
     def memory_bytes(self) -> int:
         """Bytes held by the tile pool and the tables."""

@@ -1,4 +1,4 @@
-"""write_result / read_result: the files DESIGN.md lists, read back."""
+"""write_result / read_result: the files docs/formats.md lists, read back."""
 import json
 
 import numpy as np
