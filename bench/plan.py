@@ -20,6 +20,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from worlds.paths import check_name, is_name
 from worlds.yamlio import InputError, set_override, short, to_dict
 from slam.registry import ENTRY_POINT_GROUP
 
@@ -28,6 +29,17 @@ __all__ = ["RunSpec", "Task", "VARY", "parse_worlds", "resolve_algos", "load_plu
            "shard_tasks", "parse_shard", "ENTRY_POINT_GROUP"]
 
 VARY = ("slam", "data", "both")
+
+
+# a run of the limits takes years; they keep a file of a few bytes from planning 10^15 tasks
+MAX_REPEATS = 10_000
+MAX_DRAWS = 1_000
+
+
+def _check_count(value, flag: str, limit: int) -> None:
+    """InputError unless `value` is an integer from 1 to `limit`."""
+    if isinstance(value, bool) or not isinstance(value, int) or not 1 <= value <= limit:
+        raise InputError(f"{flag} must be an integer from 1 to {limit:,}, got {short(value)}")
 
 
 @dataclass(frozen=True)
@@ -59,18 +71,33 @@ class RunSpec:
     shard: tuple[int, int] = (1, 1)
 
     def __post_init__(self):
-        if isinstance(self.repeats, bool) or not isinstance(self.repeats, int) or self.repeats < 1:
-            raise InputError(f"--repeats must be an integer >= 1, got {self.repeats!r}")
+        _check_count(self.repeats, "--repeats", MAX_REPEATS)
         if self.vary not in VARY:
-            raise InputError(f"--vary must be one of {', '.join(VARY)}, got {self.vary!r}")
-        if isinstance(self.draws, bool) or not isinstance(self.draws, int) or self.draws < 1:
-            raise InputError(f"--draws must be an integer >= 1, got {self.draws!r}")
+            raise InputError(f"--vary must be one of {', '.join(VARY)}, got {short(self.vary)}")
+        _check_count(self.draws, "--draws", MAX_DRAWS)
+        if isinstance(self.seed, bool) or not isinstance(self.seed, int) or not 0 <= self.seed < 2**62:
+            raise InputError(f"--seed must be an integer from 0 to 2^62, got {short(self.seed)}")
+        for name, value in (("--world", self.worlds), ("--algo", self.algos), ("--logs", self.logs)):
+            if isinstance(value, str) or not isinstance(value, (list, tuple)) or not all(
+                    isinstance(v, str) and v for v in value):
+                raise InputError(f"{name} must be a list of names, got {short(value)}")
+        for a in self.algos:
+            check_name(a, "--algo", "algorithm")
+        if not isinstance(self.noise, str) or not self.noise:
+            raise InputError(f"--noise must be a profile name or a YAML file, got {short(self.noise)}")
+        if not isinstance(self.suite, str) or (self.suite and not is_name(self.suite)):
+            check_name(self.suite, "--suite", "name")
+        for name, value in (("--config", self.configs), ("--set", self.overrides)):
+            if not isinstance(value, dict) or not all(k in self.algos for k in value):
+                raise InputError(f"{name} must map the run's algorithms, got {short(value)}")
+        if not all(isinstance(v, str) for v in self.configs.values()):
+            raise InputError(f"--config must name YAML files, got {short(self.configs)}")
         if self.draws > 1 and self.vary != "slam":
             raise InputError(f"--vary {self.vary}: with --draws the noise changes per draw; "
                              "repeats within a draw vary the SLAM seed only")
         if isinstance(self.min_coverage, bool) or not isinstance(self.min_coverage, (int, float)) \
                 or not 0.0 <= self.min_coverage <= 1.0:
-            raise InputError(f"--min-coverage must be a share in [0, 1], got {self.min_coverage!r}")
+            raise InputError(f"--min-coverage must be a share in [0, 1], got {short(self.min_coverage)}")
         if not self.worlds:
             raise InputError("no world given")
         if not self.algos:
@@ -80,10 +107,12 @@ class RunSpec:
         object.__setattr__(self, "configs", dict(self.configs))
         object.__setattr__(self, "logs", tuple(self.logs))
         object.__setattr__(self, "overrides", dict(self.overrides))
+        if not isinstance(self.shard, (list, tuple)):
+            raise InputError(f"--shard must be K/N with 1 <= K <= N, got {short(self.shard)}")
         shard = tuple(self.shard)
         if (len(shard) != 2 or not all(isinstance(v, int) and not isinstance(v, bool) for v in shard)
                 or not 1 <= shard[0] <= shard[1]):
-            raise InputError(f"--shard must be K/N with 1 <= K <= N, got {self.shard!r}")
+            raise InputError(f"--shard must be K/N with 1 <= K <= N, got {short(self.shard)}")
         object.__setattr__(self, "shard", shard)
         if self.logs and (self.draws != 1 or self.vary != "slam"):
             raise InputError("--logs: each log is one draw; repeats vary the SLAM seed only")

@@ -225,6 +225,18 @@ def run_benchmark(spec: RunSpec, out_dir: str | Path, jobs: int | None = None,
         return _run_locked(spec, out_dir, jobs, scheduler, resume, progress, argv, stream)
 
 
+def _check_inputs(spec: RunSpec):
+    """Load every file the run names (configs, noise profile, worlds) before any work, so a
+    bad one fails now; the worlds as load_worlds gives them."""
+    load_plugins()
+    for algo in spec.algos:
+        load_config_checked(algo, spec.configs.get(algo), spec.overrides.get(algo))
+    import sim
+    if hasattr(sim, "load_profile") and not spec.logs:
+        sim.load_profile(spec.noise)
+    return load_worlds(list(spec.worlds))
+
+
 def _run_locked(spec: RunSpec, out_dir: Path, jobs, scheduler, resume, progress, argv,
                 stream) -> RunOutcome:
     check_run_dir(out_dir, resume)
@@ -232,13 +244,14 @@ def _run_locked(spec: RunSpec, out_dir: Path, jobs, scheduler, resume, progress,
     if previous is not None and run_spec(previous, out_dir / RUN_NAME) != spec:
         raise InputError(f"--resume {out_dir}: the run was started with other arguments; "
                          "resume it without --world/--algo/--repeats/--seed/--noise/--vary/--config")
-    load_plugins()
-    for algo in spec.algos:
-        load_config_checked(algo, spec.configs.get(algo), spec.overrides.get(algo))  # fail now
+    try:
+        world_map, world_files = _check_inputs(spec)
+    except InputError as err:
+        if previous is None:
+            raise
+        # the files a resumed run names come from its run.json, not from the command line
+        raise InputError(f"{out_dir / RUN_NAME}: spec: {err}") from None
     import sim
-    if hasattr(sim, "load_profile") and not spec.logs:
-        sim.load_profile(spec.noise)  # a bad --noise fails here, before any work
-    world_map, world_files = load_worlds(list(spec.worlds))
     if not spec.logs:
         _check_cache_writable(spec, world_map, world_files)
     _write_run_json(out_dir, spec, world_map, world_files, argv, previous)

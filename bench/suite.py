@@ -22,6 +22,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from bench.plan import MAX_DRAWS
 from worlds.paths import check_name
 from worlds.yamlio import InputError, _suggest, atomic_write_text, load_yaml, short
 
@@ -31,7 +32,6 @@ DEFAULT_DRAWS = 3
 _KEYS = ["name", "description", "draws", "worlds"]
 # a suite of the limits runs for weeks; they keep a file of a few bytes from planning millions
 # of tasks (docs/formats.md, "Limits")
-MAX_DRAWS = 1000
 MAX_WORLDS = 1000
 _GENERATE_KEYS = ["generate", "seed", "size"]
 
@@ -80,7 +80,7 @@ def load_suite(name_or_path: str) -> Suite:
         name = check_name(data["name"], where, "name")
     else:
         name = check_name(p.stem, where, "name (missing; the file's name stands in)")
-    desc = data.get("description") or ""
+    desc = "" if data.get("description") is None else data["description"]
     if not isinstance(desc, str):
         raise InputError(f"{where}: description: expected a string, got {short(desc)}")
     draws = data.get("draws", DEFAULT_DRAWS)
@@ -93,9 +93,14 @@ def load_suite(name_or_path: str) -> Suite:
     if len(items) > MAX_WORLDS:
         raise InputError(f"{where}: worlds: {len(items):,} worlds, more than the limit of "
                          f"{MAX_WORLDS}")
+    # every entry is checked before any world is generated (minutes each)
+    generated = {i: _generated_args(item, where, f"worlds[{i}]")
+                 for i, item in enumerate(items) if isinstance(item, dict)}
+    refs = [None if i in generated else _world(item, where, f"worlds[{i}]", p.parent)
+            for i, item in enumerate(items)]
     worlds = []
-    for i, item in enumerate(items):
-        w = _world(item, where, f"worlds[{i}]", p.parent)
+    for i, ref in enumerate(refs):
+        w = ref if ref is not None else _generate(*generated[i], where, f"worlds[{i}]")
         if w not in worlds:
             worlds.append(w)
     return Suite(name, desc, draws, tuple(worlds), str(p))
@@ -104,8 +109,6 @@ def load_suite(name_or_path: str) -> Suite:
 def _world(item: Any, where: str, field: str, base: Path) -> str:
     """One entry of `worlds` -> a shipped world name or an absolute YAML path (checked)."""
     from worlds.load import list_worlds, load_world
-    if isinstance(item, dict):
-        return _generated(item, where, field)
     if not isinstance(item, str) or not item.strip():
         raise InputError(f"{where}: {field}: expected a world name, a .yaml path or "
                          f"{{generate: KIND, seed: S}}, got {short(item)}")
@@ -139,10 +142,9 @@ def _generator_key() -> str:
     return h.hexdigest()[:12]
 
 
-def _generated(item: dict, where: str, field: str) -> str:
-    """Write (once) the world a {generate, seed, size} entry stands for; its YAML path."""
-    from worlds.generate import KINDS, generate_yaml
-    from bench.cache import cache_dir
+def _generated_args(item: dict, where: str, field: str) -> tuple[str, int, tuple | None]:
+    """The checked (kind, seed, size) of a {generate, seed, size} entry, nothing drawn yet."""
+    from worlds.generate import KINDS, check_args
     for key in item:
         if key not in _GENERATE_KEYS:
             raise InputError(f"{where}: {field}.{key}: unknown key{_suggest(str(key), _GENERATE_KEYS)}")
@@ -161,6 +163,17 @@ def _generated(item: dict, where: str, field: str) -> str:
     if kind not in KINDS:
         raise InputError(f"{where}: {field}.generate: unknown kind {short(kind)}"
                          f"{_suggest(str(kind), list(KINDS))}")
+    try:
+        check_args(kind, seed, size)
+    except InputError as err:
+        raise InputError(f"{where}: {field}: {err}") from None
+    return kind, seed, size
+
+
+def _generate(kind: str, seed: int, size: tuple | None, where: str, field: str) -> str:
+    """Write (once) the world a checked generate entry stands for; its YAML path."""
+    from worlds.generate import generate_yaml
+    from bench.cache import cache_dir
     key = hashlib.sha256(f"{kind}|{seed}|{size}|{_generator_key()}".encode()).hexdigest()[:16]
     out = cache_dir() / "generated" / f"{kind}-s{seed}-{key}.yaml"
     if not out.is_file():

@@ -29,15 +29,16 @@ from worlds.load import world_from_dict
 from worlds.route import plan_route
 from worlds.yamlio import InputError, _suggest, short
 
-__all__ = ["KINDS", "DEFAULT_SIZE", "MIN_SIZE", "MAX_AREA", "generate_world", "generate_yaml", "parse_size"]
+__all__ = ["KINDS", "DEFAULT_SIZE", "MIN_SIZE", "MAX_AREA", "check_args", "generate_world",
+           "generate_yaml", "parse_size"]
 
 KINDS = ("office", "warehouse", "hall", "loop")
 DEFAULT_SIZE = {"office": (10.0, 8.0), "warehouse": (12.0, 9.0), "hall": (9.0, 7.0), "loop": (12.0, 8.0)}
 # smallest W x H (m, outer wall centre lines) for which every recipe step still fits
 MIN_SIZE = {"office": (5.0, 4.0), "warehouse": (5.5, 4.5), "hall": (4.0, 3.0), "loop": (4.5, 4.0)}
-# largest area (m², outer wall centre lines): drawing and checking the route take time in
-# proportion to the area (a 20 x 16 m office: minutes), a huge --size would never end
-MAX_AREA = 1000.0
+# largest area (m², outer wall centre lines): drawing and checking the route take time and
+# memory growing with the area (a 20 x 16 m office: 3.5 min, 0.5 GB; 31 x 32 m: 19 min, 1.3 GB)
+MAX_AREA = 400.0
 
 RESOLUTION = 0.05
 # the shared output map (slam.mapper) inserts hits closer than 2 m only, so a route must pass
@@ -50,7 +51,7 @@ MAX_DRAWS = 6
 
 # --- checks, data and YAML ---------------------------------------------------------------
 
-def _check_args(kind, seed, size) -> tuple[float, float]:
+def check_args(kind, seed, size) -> tuple[float, float]:
     """The (W, H) to draw, in mm; InputError naming the field for a bad kind, seed or size."""
     if kind not in KINDS:
         hint = _suggest(str(kind), list(KINDS))
@@ -108,7 +109,7 @@ def generate_world(kind: str, seed: int, size: tuple[float, float] | None = None
     Same arguments, same data. Raises InputError for a bad argument, or when MAX_DRAWS
     draws in a row fail the checks (module docstring).
     """
-    W, H = _check_args(kind, seed, size)
+    W, H = check_args(kind, seed, size)
     why = ""
     for attempt in range(MAX_DRAWS):
         rng = np.random.default_rng(seed if attempt == 0 else (int(seed), attempt))

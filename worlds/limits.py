@@ -1,7 +1,8 @@
 """Resource bounds, checked before anything large is allocated (docs/formats.md, "Limits").
 
 MAX_GRID_CELLS: the largest grid (rows x cols) a world's true map, a map file or a SLAM's map
-may have: 50 million cells (400 MB per float64 layer; a 350 m x 350 m area at 0.05 m).
+may have: 20 million cells (160 MB per float64 layer; a 220 m x 220 m area at 0.05 m;
+rendering one peaks near 0.7 GB, so that every command stays under 1 GB).
 MAX_COORDINATE: how far from the origin a position may be, 1,000 km in metres.
 MAX_ROUTE_CELLS: the largest free space (cells) the route planner takes on: 4 million cells
 (10,000 m² at 0.05 m); larger worlds need a `route:` in their YAML.
@@ -38,8 +39,8 @@ def _limit(env: str, default: int) -> int:
 
 
 def max_grid_cells() -> int:
-    """The largest grid, in cells (SLAM_BENCH_MAX_CELLS, default 50 million)."""
-    return _limit("SLAM_BENCH_MAX_CELLS", 50_000_000)
+    """The largest grid, in cells (SLAM_BENCH_MAX_CELLS, default 20 million)."""
+    return _limit("SLAM_BENCH_MAX_CELLS", 20_000_000)
 
 
 def max_route_cells() -> int:

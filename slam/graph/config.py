@@ -143,7 +143,6 @@ class LocalConfig:
     use_imu_data: bool = True                # TB3: yaw rate from the gyro in the extrapolator
     use_online_correlative_scan_matching: bool = False  # Cartographer default (TB3: true; its
                                              # 1-cell / 0.8 deg lattice then anchors the rotation)
-    deskew: bool = True                      # ours: undo motion during the 0.2 s revolution
     match_near_range: float = 1.0            # ours: > 0 weights each point in the least squares by
                                              # min(1, (match_near_range / range)^2); 0 = uniform
     motion_filter: MotionFilterConfig = field(default_factory=MotionFilterConfig)

@@ -74,7 +74,7 @@ class LocalSlam:
         self.prev_pose = self.pose.copy()
         self.t: float | None = None
         self.prev_t: float | None = None
-        self.pre = PreprocessConfig(range_min=cfg.min_range, range_max=cfg.max_range, deskew=cfg.deskew,
+        self.pre = PreprocessConfig(range_min=cfg.min_range, range_max=cfg.max_range,
                                     free_range=cfg.missing_data_ray_length)
 
     def _predict(self, scan: Scan, odom: OdomDelta | None, imu: ImuWindow | None) -> tuple[np.ndarray, np.ndarray]:

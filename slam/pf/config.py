@@ -81,7 +81,6 @@ class PfConfig:
     delta: float = 0.05               # delta: map resolution (m)
     map_extent: float = 50.0          # xmin/xmax/ymin/ymax: half side (m) of the square map around the start
     tile: int = 16                    # cells per side of a copy-on-write map tile (a power of two)
-    deskew: bool = True               # not in Gmapping: undo the motion during a revolution (from odometry)
     smooth_beams: int = 4             # not in Gmapping: each return is the mean point of 2k+1 neighbouring beams
     motion: MotionConfig = field(default_factory=MotionConfig)
     matcher: MatcherConfig = field(default_factory=MatcherConfig)

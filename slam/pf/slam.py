@@ -41,7 +41,7 @@ class ParticleFilterSlam(Slam):
         # no-return beams (inf) are dropped, as Gmapping skips readings beyond maxRange: a
         # dropped reading says nothing about the space along the beam
         self.pre = PreprocessConfig(range_max=config.max_range, free_range=0.0,
-                                    deskew=config.deskew, smooth_beams=config.smooth_beams)
+                                    smooth_beams=config.smooth_beams)
         self._scans: list[Scan] = []
         self._scan_odom: list[np.ndarray] = []
         self._scan_update: list[int] = []     # per scan: the filter update it follows

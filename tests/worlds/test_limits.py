@@ -20,7 +20,7 @@ def test_a_fine_resolution_is_refused_before_allocating(tmp_path, capsys):
     world = world_from_dict({**ROOM, "resolution": 0.0001}, where="fine.yaml")
     t0 = time.perf_counter()
     with pytest.raises(InputError, match=r"fine.yaml: resolution: 0.0001 m over .* needs a grid of .* "
-                                         r"cells, more than the limit of 50,000,000 .*SLAM_BENCH_MAX_CELLS"):
+                                         r"cells, more than the limit of 20,000,000 .*SLAM_BENCH_MAX_CELLS"):
         rasterize(world)
     assert time.perf_counter() - t0 < 5
     path = tmp_path / "fine.yaml"
