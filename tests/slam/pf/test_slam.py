@@ -94,6 +94,6 @@ def test_filter_beats_biased_odometry(room_log):
 def test_stock_gmapping_config_switches_the_additions_off():
     from pathlib import Path
     from slam.registry import load_config
-    stock = load_config("pf", Path(__file__).parents[2] / "slam" / "configs" / "pf_gmapping.yaml")
+    stock = load_config("pf", Path(__file__).parents[3] / "slam" / "configs" / "pf_gmapping.yaml")
     assert (stock.smooth_beams, stock.matcher.gn_iterations) == (0, 0)
     assert PfConfig().matcher.gn_iterations > 0

@@ -16,7 +16,7 @@ from worlds.yamlio import InputError
 from tests.slam.synthlog import box_room_segments, make_log, score, square_route, truth_grid
 
 
-CONFIGS = Path(__file__).resolve().parents[2] / "slam" / "configs"
+CONFIGS = Path(__file__).resolve().parents[3] / "slam" / "configs"
 
 
 @pytest.fixture(scope="module")

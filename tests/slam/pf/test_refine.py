@@ -7,7 +7,7 @@ from slam.pf._map_kernel import read_patch, read_patch_ref
 from slam.pf._refine_kernel import mean_hit_normal_equations, mean_hit_normal_equations_ref
 from slam.pf.proposal import refine_pose
 from slam.pf.maps import TiledMaps
-from tests.slam.test_pf_kernels import ORIGIN
+from tests.slam.pf.test_kernels import ORIGIN
 
 
 def _box_scan(rng, pose, beams=360, half=(1.6, 1.1), sigma=0.005):
