@@ -203,7 +203,7 @@ def add_outside(run_dir: str | Path, world: str, algo: str, map_yaml: str | Path
         gt = _load_npz(run_dir / "maps" / world / f"gt_s{log_seed}.npz",
                        f"true path of {world} log seed {log_seed}", "times", "poses")
     if render:
-        from sim.log import read_log
+        from sim.logs import read_log
         log_file = draw_log_path(run_dir, run, spec, world, log_seed)
         grid = render_map(read_log(log_file), times, poses, str(trajectory))
     row = new_row(Task(world, algo, 0, log_seed, 0, draw), spec.noise, spec.vary)

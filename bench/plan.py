@@ -321,7 +321,7 @@ def read_log_set(text: str) -> list[tuple[str, str, int, str]]:
     of every sensor log (.npz), sorted by path. The world is the log's own (meta world_source,
     else its shipped name world), so its true map can be made; InputError names the log when
     it is unreadable or its world cannot be found."""
-    from sim.log import read_log
+    from sim.logs import read_log
     items = [Path(t.strip()).expanduser() for t in str(text or "").split(",") if t.strip()]
     if not items:
         raise InputError("--logs is empty")
@@ -351,7 +351,7 @@ def read_log_set(text: str) -> list[tuple[str, str, int, str]]:
 
 def _log_world(path: Path, meta: dict) -> str:
     """The world of a recorded log as a loadable reference (a YAML path or a shipped name)."""
-    from sim.log import world_ref
+    from sim.logs import world_ref
     ref = world_ref(meta, path)
     if ref is None:
         name, src = meta.get("world") or "", meta.get("world_source") or ""

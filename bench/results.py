@@ -19,7 +19,7 @@ import math
 from pathlib import Path
 from typing import Iterable
 
-from sim.log import parse_json
+from worlds.jsonio import loads as parse_json
 from worlds.paths import check_name, is_name
 from worlds.yamlio import InputError, atomic_write_text, short
 

@@ -391,7 +391,7 @@ def _run_locked(spec: RunSpec, out_dir: Path, jobs, scheduler, resume, progress,
 
 
 def _read(path):
-    from sim.log import read_log
+    from sim.logs import read_log
     return read_log(path)
 
 

@@ -80,7 +80,7 @@ def _load_log(source):
         return source
     key = str(source)
     if key not in _LOGS:
-        from sim.log import read_log
+        from sim.logs import read_log
         if len(_LOGS) >= 4:
             _LOGS.pop(next(iter(_LOGS)))
         _LOGS[key] = read_log(key)

@@ -17,7 +17,7 @@ from metrics.surface import (DEFAULT_TAU_M, SurfaceClassification, SurfacePortio
 from metrics.trajectory import (TrajectoryContext, TrajectoryError, ate_rpe, rigid_fit_2d,
                                 trajectory_error)
 from metrics.truth import PreparedTruth, prepare_truth
-from metrics.tum import read_tum, write_tum
+from sim.logs.tum import read_tum, write_tum
 from metrics import builtin as _builtin  # noqa: F401,E402  (registers the built-in metrics)
 
 __all__ = ["score_map", "map_context", "score_context", "MapContext", "classify",

@@ -11,34 +11,19 @@ User errors (missing or malformed files, an empty map) print one line `error: ..
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import sys
 from pathlib import Path
 
 from worlds.cli import Parser, check_out_file, integer, number, positive_float, run_cli, share_0_1
+from worlds.jsonio import dumps
 from worlds.yamlio import InputError
 
-__all__ = ["main", "build_parser", "to_json"]
+__all__ = ["main", "build_parser"]
 
 # --tolerance k dilates both maps by a (2k+1)^2 square: cost grows as k^2, and 50 cells
 # (2.5 m at 0.05 m) is already far past any tolerance that says something about a map
 MAX_TOLERANCE = 50
-
-
-def to_json(obj) -> str:
-    """JSON text of a result dict; NaN and infinities become null (strict JSON)."""
-    def clean(v):
-        if isinstance(v, dict):
-            return {k: clean(x) for k, x in v.items()}
-        if isinstance(v, (list, tuple)):
-            return [clean(x) for x in v]
-        if isinstance(v, float) and not math.isfinite(v):
-            return None
-        if hasattr(v, "item") and callable(v.item):  # numpy scalar
-            return clean(v.item())
-        return v
-    return json.dumps(clean(obj), allow_nan=False)
 
 
 def _pose_arg(text: str):
@@ -127,7 +112,7 @@ def _read_map(path: str):
 
 def _print(result: dict, as_json: bool, keys: list[str] | None = None) -> None:
     if as_json:
-        print(to_json(result))
+        print(dumps(result))
         return
     for k in keys or list(result):
         if k not in result:
@@ -199,12 +184,12 @@ def _score(args) -> int:
 def _trajectory(args) -> int:
     from metrics import registry
     from metrics.trajectory import TrajectoryContext
-    from metrics.tum import read_tum
+    from sim.logs.tum import read_tum
 
     et, ep = read_tum(args.est)
     if str(args.truth).endswith(".npz"):
         # a simulated sensor log carries the true path: no separate file needed
-        from sim.log import read_log
+        from sim.logs import read_log
         log = read_log(args.truth)
         if not log.has_ground_truth:
             raise InputError(f"{args.truth}: the log has no ground truth (gt_t, gt_pose empty)")

@@ -25,16 +25,16 @@ Looking a pose up at a relation timestamp t:
 from __future__ import annotations
 
 import argparse
-import json
 import os
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
+from worlds.jsonio import dumps
 from worlds.yamlio import InputError
+from sim.logs.tum import read_number_rows
 from slam.pose import compose, interpolate_poses, inverse, wrap_angle
-from metrics.tum import read_number_rows
 
 __all__ = ["Relations", "read_relations", "lookup_poses", "relation_errors", "relations_error",
            "relations_from_files", "add_relations_arguments", "relations_main", "format_relations",
@@ -197,10 +197,10 @@ def _read_odometry(path: str | os.PathLike) -> tuple[np.ndarray, np.ndarray]:
     """Odometry (times, poses) from a sensor log: .npz, or a CARMEN / .gfs log."""
     p = Path(path)
     if p.suffix == ".npz":
-        from sim.log import read_log
+        from sim.logs import read_log
         log = read_log(p)
     else:
-        from sim.importers import import_log
+        from sim.logs import import_log
         log = import_log(p)
     if not log.has_odometry:
         raise InputError(f"{p}: the log has no odometry")
@@ -216,7 +216,7 @@ def relations_from_files(traj_path: str | os.PathLike, relations_path: str | os.
     odom_path: optional sensor log (.npz, CARMEN or .gfs) whose odometry carries the trajectory
     between its poses. Adds "trajectory" and "relations" (the paths) to the result.
     """
-    from metrics.tum import read_tum
+    from sim.logs.tum import read_tum
     t, poses = read_tum(traj_path)
     rel = read_relations(relations_path)
     odom = _read_odometry(odom_path) if odom_path is not None else None
@@ -264,15 +264,6 @@ def add_relations_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--json", action="store_true", help="print one JSON object")
 
 
-def _nan_to_none(v):
-    """Strict JSON: NaN statistics (fewer than two relations) become null."""
-    if isinstance(v, dict):
-        return {k: _nan_to_none(x) for k, x in v.items()}
-    if isinstance(v, float) and not np.isfinite(v):
-        return None
-    return v
-
-
 def relations_main(args: argparse.Namespace) -> int:
     """Run `metrics relations` for parsed args; InputError propagates to the CLI's handler."""
     res = relations_from_files(args.traj, args.relations, getattr(args, "odom", None),
@@ -280,7 +271,7 @@ def relations_main(args: argparse.Namespace) -> int:
                                tolerance=getattr(args, "tolerance", 1e-5),
                                long_s=getattr(args, "long_s", 5.0))
     if getattr(args, "json", False):
-        print(json.dumps(_nan_to_none(res), sort_keys=True))
+        print(dumps(res, sort_keys=True))
     else:
         print(format_relations(res))
     return 0

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from metrics.result import Result
-from metrics.tum import MAX_COORD_M, MAX_TIME_S
+from sim.logs.tum import MAX_COORD_M, MAX_TIME_S
 from slam.pose import compose, interpolate_poses, relative, wrap_angle
 from worlds.yamlio import InputError
 
@@ -84,7 +84,7 @@ def _rmse(v: np.ndarray) -> float:
 
 def _check(t: np.ndarray, poses: np.ndarray, name: str) -> tuple[np.ndarray, np.ndarray]:
     """(N,) times and (N, 3) poses sorted by time; InputError naming `name` and the first bad
-    pose when the shapes differ, a value is not finite or beyond metrics.tum's bounds
+    pose when the shapes differ, a value is not finite or beyond sim.logs.tum's bounds
     (|t| <= MAX_TIME_S, |x|, |y| <= MAX_COORD_M: beyond them the alignment's squares
     overflow), or a time repeats."""
     t = np.asarray(t, dtype=np.float64).reshape(-1)

@@ -62,8 +62,8 @@ def _load_world(name_or_path: str):
 
 
 def _log_world(log, log_path: str):
-    """The World of a recorded log (sim.log.world_ref), or None: unknown or unreadable."""
-    from sim.log import world_ref
+    """The World of a recorded log (sim.logs.world_ref), or None: unknown or unreadable."""
+    from sim.logs import world_ref
     ref = world_ref(log.meta, log_path)
     if ref is None:
         return None
@@ -74,8 +74,7 @@ def _log_world(log, log_path: str):
 
 
 def cmd_record(args) -> int:
-    from sim.log import write_log
-    from sim.record import MIN_COVERAGE, record, recording_problem
+    from sim import MIN_COVERAGE, record, recording_problem, write_log
     min_cover = MIN_COVERAGE if args.min_coverage is None else args.min_coverage
     check_out_file(args.out)
     world = _load_world(args.world)
@@ -93,7 +92,7 @@ def cmd_record(args) -> int:
 
 
 def cmd_show(args) -> int:
-    from sim.log import read_log
+    from sim.logs import read_log
     from sim.plot import plot_log
     log = read_log(args.log)
     world = _log_world(log, args.log)
@@ -109,13 +108,12 @@ def _is_bag(path: Path) -> bool:
 
 
 def cmd_import(args) -> int:
-    from sim.importers import import_log
-    from sim.log import write_log
+    from sim.logs import import_log, write_log
     out = check_out_file(args.out)
     if out.exists() and not args.force:
         raise InputError(f"{out}: exists already (--force overwrites it)")
     if _is_bag(Path(args.file)):
-        from sim.rosbag import import_bag
+        from sim.logs import import_bag
         log = import_bag(args.file, args.scan_topic, args.odom_topic, args.imu_topic)
     else:
         log = import_log(args.file, fmt=args.format)
@@ -127,8 +125,8 @@ def cmd_import(args) -> int:
 
 
 def cmd_export(args) -> int:
-    from sim.log import read_log
-    from sim.rosbag import DEFAULT_EPOCH, export_bag
+    from sim.logs import export_bag, read_log
+    from sim.logs.ros_export import DEFAULT_EPOCH
     out = Path(args.out)
     if out.exists():
         raise InputError(f"{out}: exists already (a bag is never overwritten)")

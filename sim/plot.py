@@ -4,7 +4,7 @@ from __future__ import annotations
 from pathlib import Path
 
 
-from sim.log import SensorLog
+from sim.logs import SensorLog
 
 __all__ = ["draw_world", "draw_paths", "plot_log"]
 

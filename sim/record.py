@@ -29,7 +29,7 @@ from sim._coverage import mark_beam_ends_inplace
 from sim.controller import ControllerConfig, PurePursuit
 from sim.imu import simulate_imu
 from sim.lidar import LidarConfig, apply_range_noise, beam_poses, cast_scans
-from sim.log import SensorLog
+from sim.logs import SensorLog
 from sim.noise import NoiseProfile, load_profile
 from sim.odometry import encoder_ticks, integrate_ticks, odometry_drift, wheel_angles_at
 from sim.robot import DiffDriveRobot, RobotConfig, twist_from_wheels, wheel_speeds

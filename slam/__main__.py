@@ -29,7 +29,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 def cmd_run(algo: str, log: str, out: str, config: str | None = None, seed: int = 0) -> dict:
     """Run `algo` on the log file, write the result files into `out`; returns the stats."""
-    from sim.log import read_log
+    from sim.logs import read_log
     from slam.io import write_result
     from slam.replay import run_algorithm
 

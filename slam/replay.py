@@ -12,7 +12,7 @@ from typing import Any
 import numpy as np
 
 from worlds.yamlio import InputError, to_dict
-from sim.log import SensorLog
+from sim.logs import SensorLog
 from slam.registry import get as get_algorithm, load_config
 from slam.base import ImuWindow, OdomDelta, Scan, Slam, SlamResult
 from slam.pose import interpolate_poses

@@ -15,18 +15,16 @@ trajectory, stats).
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 import time
 from pathlib import Path
-
-import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from metrics.relations import STAT_KEYS, read_relations, relations_error  # noqa: E402
-from sim.importers import import_log  # noqa: E402
+from sim.logs import import_log  # noqa: E402
+from worlds.jsonio import dumps  # noqa: E402
 from worlds.yamlio import InputError  # noqa: E402
 
 DEFAULT_DATA = ROOT.parent / "shared" / "data" / "radish"
@@ -132,18 +130,9 @@ def run(data: Path, algos: str | None, out: Path, seed: int) -> int:
               f"{wall:.1f} s wall, {duration / wall:.1f}x real time", flush=True)
     table = format_table(rows, duration)
     (out / "table.md").write_text(table + "\n")
-    (out / "results.json").write_text(json.dumps({"duration_s": duration, "rows": rows},
-                                                 indent=1, default=_jsonable))
+    (out / "results.json").write_text(dumps({"duration_s": duration, "rows": rows}, indent=1))
     print(table)
     return 0
-
-
-def _jsonable(v):
-    if isinstance(v, (np.floating, np.integer)):
-        return v.item()
-    if isinstance(v, np.ndarray):
-        return v.tolist()
-    return str(v)
 
 
 if __name__ == "__main__":

@@ -4,7 +4,7 @@
                                            [--out docs/gallery] [--max-px 700] [--seed S]
 
 For each log whose timestamps are usable (LOGS below) and each algorithm, imports the log
-(sim.importers), runs the algorithm with slam/configs/radish_<algo>.yaml, writes
+(sim.logs.carmen), runs the algorithm with slam/configs/radish_<algo>.yaml, writes
 OUT/<log>_<algo>.png (the map, unknown grey, with the trajectory; at most --max-px pixels a
 side, a small PNG) and scores the map with metrics.gtfree (occupied and free fractions,
 corners, enclosed areas; Filatov et al. 2017: a blurred or doubled map has more of them).
@@ -25,7 +25,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from sim.importers import import_log  # noqa: E402
+from sim.logs import import_log  # noqa: E402
 from worlds.yamlio import InputError  # noqa: E402
 
 DEFAULT_DATA = ROOT.parent / "shared" / "data" / "radish"

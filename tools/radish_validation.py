@@ -33,8 +33,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from metrics.relations import Relations, lookup_poses, read_relations, relations_error  # noqa: E402
-from sim.importers import import_log  # noqa: E402
-from sim.log import SensorLog  # noqa: E402
+from sim.logs import SensorLog, import_log  # noqa: E402
 from slam.pf.motion import motion_std  # noqa: E402
 from slam.pose import compose, relative, wrap_angle  # noqa: E402
 from worlds.yamlio import load_yaml, set_override  # noqa: E402

@@ -70,7 +70,7 @@ def test_a_log_never_leads_to_a_world_file_outside_its_folder(log_dir, tmp_path,
         err = capsys.readouterr().err.strip().splitlines()
         assert len(err) == 1 and f"{name}: meta.world" in err[0] and "copy its YAML" in err[0]
     shutil.copy(elsewhere / "w.yaml", logs / "w.yaml")   # beside the log: read
-    assert sim.log.world_ref(sim.read_log(logs / "a.npz").meta, logs / "a.npz") == str(
+    assert sim.logs.world_ref(sim.read_log(logs / "a.npz").meta, logs / "a.npz") == str(
         (logs / "w.yaml").resolve())
 
 

@@ -16,7 +16,7 @@ from hypothesis import HealthCheck, given, settings, strategies as st
 
 from metrics.__main__ import main as metrics_main
 from sim.__main__ import main as sim_main
-from sim.log import write_log
+from sim.logs import write_log
 from slam.__main__ import main as slam_main
 from tests.rawlog import raw_npz_bytes
 from tests.slam.synthlog import box_room_segments, make_log

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from metrics.__main__ import main
-from metrics.tum import write_tum
+from sim.logs.tum import write_tum
 from tests.metrics.maps import ROOM, draw
 from worlds.grid import Grid
 from worlds.mapio import write_map
@@ -163,7 +163,7 @@ def test_trajectory_command(capsys, tmp_path):
 
 
 def test_trajectory_truth_from_a_sensor_log(capsys, tmp_path):
-    from sim.log import SensorLog, write_log
+    from sim.logs import SensorLog, write_log
     t = np.linspace(0, 20, 201)
     gt = np.column_stack([0.1 * t, np.sin(0.2 * t), 0.1 * t])
     write_log(SensorLog(t[:3], np.ones((3, 4)), np.linspace(0, 3, 4), gt_t=t, gt_pose=gt), tmp_path / "log.npz")

@@ -137,7 +137,7 @@ def test_read_relations_empty_and_missing(tmp_path):
 
 def test_gfs_excerpt_odometry_against_relation_excerpt(tmp_path, capsys):
     """The raw odometry of the .gfs excerpt, written as TUM, scored through the CLI entry point."""
-    from sim.importers import import_log
+    from sim.logs.carmen import import_log
     log = import_log(DATA / "csail_excerpt.gfs")
     traj = tmp_path / "odom.tum"
     _write_tum(traj, log.odom_t, log.odom_pose)
@@ -165,7 +165,7 @@ def test_gfs_excerpt_odometry_against_relation_excerpt(tmp_path, capsys):
 
 @pytest.mark.skipif(not RADISH.is_dir(), reason="shared Radish data not present")
 def test_corrected_csail_trajectory_scores_about_4cm():
-    from sim.importers import import_log
+    from sim.logs.carmen import import_log
     rel = read_relations(RADISH / "mit-csail.relations")
     log = import_log(RADISH / "csail.robotlaser1.log")   # corrected poses, 686 scans
     exact = relations_error(log.scan_t, log.odom_pose, rel, lookup="exact")
@@ -181,7 +181,7 @@ def test_corrected_csail_trajectory_scores_about_4cm():
 
 @pytest.mark.skipif(not RADISH.is_dir(), reason="shared Radish data not present")
 def test_raw_csail_odometry_baseline():
-    from sim.importers import import_log
+    from sim.logs.carmen import import_log
     rel = read_relations(RADISH / "mit-csail.relations")
     log = import_log(RADISH / "csail.corrected.gfs")
     res = relations_error(log.odom_t, log.odom_pose, rel)

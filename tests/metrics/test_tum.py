@@ -4,7 +4,7 @@ import re
 import numpy as np
 import pytest
 
-from metrics.tum import read_tum, write_tum, yaw_from_quaternion
+from sim.logs.tum import read_tum, write_tum, yaw_from_quaternion
 from worlds.yamlio import InputError
 
 

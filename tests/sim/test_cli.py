@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from sim.__main__ import main
-from sim.log import read_log
+from sim.logs import read_log
 
 ROOM = """name: cli_room
 walls:
@@ -122,7 +122,7 @@ def test_unreadable_truncated_and_newer_logs(tmp_path, room_yaml, capsys):
 
 
 def test_import_of_a_missing_file(tmp_path, capsys):
-    pytest.importorskip("sim.importers")
+    pytest.importorskip("sim.logs.carmen")
     assert main(["import", str(tmp_path / "nothing.log"), "--out", str(tmp_path / "x.npz")]) == 2
     assert "nothing.log" in _error_line(capsys)
 

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from sim.log import SensorLog
+from sim.logs import SensorLog
 
 ROOM = 4.0
 

@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from sim.log import SensorLog, write_log
+from sim.logs import SensorLog, write_log
 from slam.__main__ import main
 
 from tests.slam.synthlog import box_room_segments, make_log

@@ -4,7 +4,7 @@ import json
 import numpy as np
 
 from slam.base import SlamResult
-from slam.io import read_result, read_tum, write_result, write_tum
+from slam.io import read_result, write_result
 from worlds.grid import Grid
 
 
@@ -31,14 +31,5 @@ def test_writes_the_design_files_and_reads_them_back(tmp_path):
     assert back.stats == res.stats
     assert back.config == res.config
     assert json.loads((tmp_path / "out" / "stats.json").read_text())["realtime_factor"] == 4.0
-
-
-def test_tum_round_trip(tmp_path, rng):
-    t = np.sort(rng.uniform(0, 10, 20))
-    poses = np.column_stack([rng.normal(size=(20, 2)), rng.uniform(-np.pi, np.pi, 20)])
-    write_tum(tmp_path / "a.tum", t, poses)
-    t2, p2 = read_tum(tmp_path / "a.tum")
-    np.testing.assert_allclose(t2, t, atol=1e-9)
-    np.testing.assert_allclose(p2, poses, atol=1e-9)
-    line = (tmp_path / "a.tum").read_text().splitlines()[0].split()
-    assert len(line) == 8 and line[3] == "0"
+    line = (tmp_path / "out" / "trajectory.tum").read_text().splitlines()[0].split()
+    assert len(line) == 8 and line[3] == "0"   # TUM: t x y z qx qy qz qw, z = 0

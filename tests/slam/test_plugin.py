@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from sim.log import write_log
+from sim.logs import write_log
 from tests.slam.synthlog import box_room_segments, make_log
 
 ROOT = Path(__file__).resolve().parents[2]

@@ -6,7 +6,7 @@ from pathlib import Path
 import numpy as np
 
 from metrics.relations import Relations
-from sim.log import SensorLog
+from sim.logs import SensorLog
 from slam.pose import relative
 
 ROOT = Path(__file__).resolve().parents[2]

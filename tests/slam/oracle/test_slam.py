@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from sim.log import SensorLog
+from sim.logs import SensorLog
 from slam.replay import run_algorithm
 from worlds.yamlio import InputError
 

@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from sim.log import SensorLog
+from sim.logs import SensorLog
 from slam import registry
 from slam.replay import run_algorithm
 from slam.pf import ParticleFilterSlam, PfConfig

@@ -1,11 +1,11 @@
-"""Sensor logs are checked for their values at read time (sim.logcheck): each bad value gets
+"""Sensor logs are checked for their values at read time (sim.logs.checks): each bad value gets
 one line naming the file, the array or field and the first bad index; writers and importers
 refuse to produce such logs."""
 import numpy as np
 import pytest
 
-from sim.log import FORMAT_VERSION, read_log, write_log
-from sim.logcheck import MAX_SPEED_M_S
+from sim.logs import FORMAT_VERSION, read_log, write_log
+from sim.logs.checks import MAX_SPEED_M_S
 from slam.__main__ import main as slam_main
 from tests.rawlog import raw_npz_bytes
 from tests.slam.synthlog import box_room_segments, make_log

@@ -1,5 +1,6 @@
-"""Sensor logs as ROS bags (sim.rosbag): round trips through ROS 1, ROS 2 and MCAP, the bags
-read by independent readers, and one-line errors on bags that cannot be used."""
+"""Sensor logs as ROS bags (sim.logs.ros_export, sim.logs.ros_import): round trips through
+ROS 1, ROS 2 and MCAP, the bags read by independent readers, and one-line errors on bags that
+cannot be used."""
 import math
 import shutil
 import subprocess
@@ -11,8 +12,8 @@ import pytest
 pytest.importorskip("rosbags")
 
 from sim.__main__ import main as sim_main  # noqa: E402
-from sim.log import write_log  # noqa: E402
-from sim.rosbag import _typestore, export_bag, import_bag  # noqa: E402
+from sim.logs import export_bag, import_bag, write_log  # noqa: E402
+from sim.logs.ros_msgs import typestore  # noqa: E402
 from tests.slam.synthlog import box_room_segments, make_log  # noqa: E402
 from worlds.yamlio import InputError  # noqa: E402
 
@@ -96,7 +97,7 @@ def test_ros1_bag_is_read_by_rosbag(log, tmp_path):
 def _ros1_bag(path, scans=(), odom=False, static_roll=0.0, multi=False):
     """A hand-made ROS 1 bag: LaserScans (or MultiEchoLaserScans) of the given beam counts."""
     from rosbags.rosbag1 import Writer
-    ts = _typestore("ros1")
+    ts = typestore("ros1")
     T = ts.types
 
     def header(t, frame):

@@ -1,4 +1,4 @@
-"""sim.log's .npz: a plain npz (np.load reads it), entries of sensor noise stored, the rest
+"""sim.logs.npz: a plain npz (np.load reads it), entries of sensor noise stored, the rest
 deflated, every array back bit for bit."""
 import io
 import json
@@ -9,7 +9,7 @@ import zipfile
 import numpy as np
 import pytest
 
-from sim.log import SensorLog, read_log, write_log
+from sim.logs import SensorLog, read_log, write_log
 from worlds.yamlio import InputError
 
 
@@ -102,8 +102,8 @@ def test_a_zip_bomb_member_is_refused_before_it_is_read(tmp_path):
 def test_a_log_above_the_size_cap_is_refused_naming_the_member(tmp_path, monkeypatch):
     """Consistent shapes, but more bytes than MAX_LOG_BYTES (here cut to 1 MB): refused at
     the member that crosses the cap, before it is read."""
-    import sim.log
-    monkeypatch.setattr(sim.log, "MAX_LOG_BYTES", 1_000_000)
+    import sim.logs.npz
+    monkeypatch.setattr(sim.logs.npz, "MAX_LOG_BYTES", 1_000_000)
     log = _log(n=300)
     n = 20_000   # 20,000 scans of 90 beams: 14.4 MB as float64
     big = _zip(tmp_path / "big.npz", _members(log, scan_t=np.arange(n) * 0.01,
@@ -121,8 +121,8 @@ def test_a_bomb_below_the_size_cap_is_refused_by_its_inflation(tmp_path, monkeyp
     """Consistent shapes and sizes under MAX_LOG_BYTES, but zeros that inflate a thousandfold:
     refused from the zip directory before the array is read (a 1.5 GB bomb of 1.7 MB took
     1.5 GB before)."""
-    import sim.log
-    monkeypatch.setattr(sim.log, "_BOMB_MIN_BYTES", 1_000_000)
+    import sim.logs.npz
+    monkeypatch.setattr(sim.logs.npz, "_BOMB_MIN_BYTES", 1_000_000)
     log = _log(n=300)
     n = 20_000
     bomb = _zip(tmp_path / "bomb.npz", _members(log, scan_t=np.arange(n) * 0.01,

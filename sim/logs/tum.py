@@ -1,4 +1,6 @@
-"""TUM trajectory text files (`t x y z qx qy qz qw`, one pose a line), as read by evo.
+"""TUM trajectory text files (`t x y z qx qy qz qw`, one pose a line), as read by evo: the one
+reader and writer of them (slam writes its trajectory.tum with it, metrics and bench read
+estimated and true trajectories with it).
 
 A 2D pose (x, y, yaw) is stored with z = 0 and the quaternion of a rotation about z;
 reading takes the yaw out of any unit quaternion (roll and pitch are ignored).
@@ -130,6 +132,6 @@ def write_tum(path: str | os.PathLike, t: np.ndarray, poses: np.ndarray) -> None
     if len(t) != len(poses):
         raise ValueError(f"write_tum: {len(t)} times but {len(poses)} poses")
     half = poses[:, 2] / 2.0
-    lines = [f"{ti:.9f} {x:.9g} {y:.9g} 0 0 0 {np.sin(h):.12g} {np.cos(h):.12g}"
+    lines = [f"{ti:.9f} {x:.9g} {y:.9g} 0 0 0 {np.sin(h):.12g} {np.cos(h):.12g}\n"
              for ti, (x, y, _), h in zip(t, poses, half)]
-    atomic_write_text(path, "\n".join(lines) + "\n")
+    atomic_write_text(path, "".join(lines))

@@ -17,13 +17,13 @@ GMapping .gfs messages read:
 Other messages (NEFF, SYNC, RLASER, ODO_UPDATE, SM_UPDATE, RESAMPLE, FRAME, comments) are
 counted in meta.messages and otherwise skipped.
 
-Conventions (sim/log.py): beam angles in the lidar frame, from the message when it has them,
-else the documented defaults (180 or 181 beams: 1 degree steps, 360 or 361 beams: 0.5 degree
-steps, other counts: 180 degrees / n; all starting at -90 degrees). A reading at the sensor's
-maximum is a no return (inf): the Radish logs mark it with one frequent value at the top of
-the file's readings (81.83, 81.91, 50.0, 51.15, 32.767 m, with neighbours a few cm below), so
-readings within `NO_RETURN_MARGIN` below that marker or above it, or at or above the range the
-message or a PARAM declares, become inf.
+Conventions (sim.logs.sensorlog): beam angles in the lidar frame, from the message when it has
+them, else the documented defaults (180 or 181 beams: 1 degree steps, 360 or 361 beams: 0.5
+degree steps, other counts: 180 degrees / n; all starting at -90 degrees). A reading at the
+sensor's maximum is a no return (inf): the Radish logs mark it with one frequent value at the
+top of the file's readings (81.83, 81.91, 50.0, 51.15, 32.767 m, with neighbours a few cm
+below), so readings within `NO_RETURN_MARGIN` below that marker or above it, or at or above the
+range the message or a PARAM declares, become inf.
 Odometry: the robot pose fields of FLASER / ROBOTLASER1 (one exact pose per scan) when the
 scans carry them, else the ODOM lines. The .gfs LASER_READING pose is not used: it equals
 the pose of the next ODOM line, about 0.2 s later (README of the Radish data). GMapping's
@@ -46,8 +46,8 @@ from pathlib import Path
 
 import numpy as np
 
-from sim.log import SensorLog, value_problem
 from worlds.yamlio import InputError
+from sim.logs.sensorlog import SensorLog, value_problem
 
 __all__ = ["import_log", "detect_format", "default_angles", "FORMATS", "NO_RETURN_MARGIN"]
 
@@ -219,6 +219,8 @@ class _Accumulator:
                          and bool(np.all(np.abs(offset) < 1e-9))
                          and np.allclose(self.laser_pose, self.robot_pose, atol=1e-9)))
         meta = {
+            # "sim.importers": the value every imported log carries (another would change
+            # the bytes of every re-import)
             "source": str(self.path), "format": self.fmt, "importer": "sim.importers",
             "messages": dict(sorted(self.messages.items())),
             "lidar": {"range_min": 0.0, "range_max": range_max, "offset": offset.tolist(),

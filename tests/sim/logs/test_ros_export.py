@@ -1,4 +1,4 @@
-"""ROS export stamps (sim.rosbag): integer nanoseconds, a real epoch recorded on /log_epoch and
+"""ROS export stamps (sim.logs.ros_export): integer nanoseconds, a real epoch recorded on /log_epoch and
 taken off again on import, the TurtleBot3 Burger's heights in /tf_static."""
 import dataclasses
 
@@ -8,8 +8,9 @@ import pytest
 pytest.importorskip("rosbags")
 
 from sim.__main__ import main as sim_main  # noqa: E402
-from sim.log import SensorLog, write_log  # noqa: E402
-from sim.rosbag import DEFAULT_EPOCH, EPOCH_TOPIC, export_bag, import_bag  # noqa: E402
+from sim.logs import SensorLog, export_bag, import_bag, write_log  # noqa: E402
+from sim.logs.ros_export import DEFAULT_EPOCH  # noqa: E402
+from sim.logs.ros_msgs import EPOCH_TOPIC  # noqa: E402
 
 STREAMS = {"scan_t": "/scan", "odom_t": "/odom", "imu_t": "/imu", "gt_t": "/ground_truth"}
 LEAN = 2.9999999999996   # a time just under a whole second: a float split once made it 2 s 0 ns
@@ -35,7 +36,7 @@ def _bag_path(tmp_path, fmt):
 
 
 def _header_stamps(path) -> dict[str, list[int]]:
-    """topic -> header stamps (ns) in bag order, read with rosbags, not sim.rosbag."""
+    """topic -> header stamps (ns) in bag order, read with rosbags, not sim.logs."""
     from rosbags.highlevel import AnyReader
     out: dict[str, list[int]] = {}
     with AnyReader([path]) as reader:

@@ -1,4 +1,4 @@
-"""Importing bags from elsewhere (sim.rosbag.import_bag, `python -m sim import`): ROS 1 frames
+"""Importing bags from elsewhere (sim.logs.ros_import, `python -m sim import`): ROS 1 frames
 with a leading slash, several scan topics, header stamps out of order, --out kept without
 --force."""
 import numpy as np
@@ -7,7 +7,8 @@ import pytest
 pytest.importorskip("rosbags")
 
 from sim.__main__ import main as sim_main  # noqa: E402
-from sim.rosbag import _typestore, import_bag  # noqa: E402
+from sim.logs import import_bag  # noqa: E402
+from sim.logs.ros_msgs import typestore  # noqa: E402
 from worlds.yamlio import InputError  # noqa: E402
 
 
@@ -17,7 +18,7 @@ def _ros1_bag(path, scans=None, slash="", tf_odom=True, epoch=None):
     /tf odom -> base_footprint at every stamp of the first topic, x = 0.1 m per second;
     `epoch` (ns) on /log_epoch when given."""
     from rosbags.rosbag1 import Writer
-    ts = _typestore("ros1")
+    ts = typestore("ros1")
     T = ts.types
     scans = {"/scan": [1.0, 2.0, 3.0]} if scans is None else scans
 

@@ -8,12 +8,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from sim.importers import default_angles, detect_format, import_log
-from sim.log import read_log, write_log
+from sim.logs import read_log, write_log
+from sim.logs.carmen import default_angles, detect_format, import_log
 from worlds.yamlio import InputError
 
-DATA = Path(__file__).resolve().parents[1] / "data"
-RADISH = Path(__file__).resolve().parents[3] / "shared" / "data" / "radish"
+DATA = Path(__file__).resolve().parents[2] / "data"
+RADISH = Path(__file__).resolve().parents[4] / "shared" / "data" / "radish"
 
 
 def _flaser(t: float, ranges, laser=(1.0, 2.0, 0.5), odom=(1.0, 2.0, 0.5)) -> str:
