@@ -1,6 +1,8 @@
 """The benchmark: worlds x algorithms x repeats -> results.json, summary tables, figures.
 
 Python API (each is what a `python -m bench` command calls):
+  spec_from_options(world=..., algo=..., repeats=..., ...) -> RunSpec (bench.spec: the flags
+    of `bench run` as keywords)
   run_benchmark(RunSpec(...), out_dir, jobs=None, scheduler=None, resume=False) -> RunOutcome
   write_report(out_dir) -> Path of summary.md
   add_outside(out_dir, world, algo, map_yaml, trajectory=None, draw=0) -> row (bench.add)

@@ -13,6 +13,38 @@ def build_parser() -> argparse.ArgumentParser:
     p = Parser(prog="python -m bench", description=__doc__)
     sub = p.add_subparsers(dest="command", required=True)
 
+    _add_run_command(sub)
+
+    m = sub.add_parser("merge", help="join the shards of one run (bench run --shard K/N) into one run")
+    m.add_argument("dirs", nargs="+", metavar="DIR", help="shard folders")
+    m.add_argument("--out", required=True, help="the merged run's folder (new)")
+    m.add_argument("--no-figures", action="store_true", help="tables only")
+
+    sp = sub.add_parser("speed", help="real-time factors of the simulator and each algorithm on "
+                                      "the shipped worlds (median of --runs, one core)")
+    sp.add_argument("--world", default="all", help="world names or 'all' (default)")
+    sp.add_argument("--algo", help="comma-separated algorithms (default: the shipped ones)")
+    sp.add_argument("--runs", type=positive_int, default=3, help="runs per figure (default 3)")
+    sp.add_argument("--noise", default="realistic", help="sensor-noise profile (default realistic)")
+
+    rep = sub.add_parser("report", help="rebuild summary.md/.csv and figures from results.json")
+    rep.add_argument("dir")
+    rep.add_argument("--no-figures", action="store_true")
+
+    _add_add_command(sub)
+
+    g = sub.add_parser("regress", help="rerun a small fixed matrix and compare with a baseline")
+    g.add_argument("--baseline", help="baseline JSON (default: bench/baseline.json)")
+    g.add_argument("--update", action="store_true", help="write the baseline instead")
+    g.add_argument("--world", help="worlds of the matrix (default: the baseline's)")
+    g.add_argument("--algo", help="algorithms of the matrix (default: the baseline's)")
+    g.add_argument("--repeats", type=positive_int, help="repeats (default: the baseline's)")
+    g.add_argument("--jobs", type=positive_int, default=None, help="worker processes (default: all cores)")
+    g.add_argument("--out", help="keep the regression run in this directory")
+    return p
+
+
+def _add_run_command(sub) -> None:
     r = sub.add_parser("run", help="run worlds x algorithms x repeats, write results and report")
     r.add_argument("--world", help="world name(s) or YAML file(s), comma-separated, or 'all'")
     r.add_argument("--logs", metavar="DIR|FILE,...",
@@ -50,22 +82,8 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--no-progress", action="store_true", help="no progress output")
     r.add_argument("--no-figures", action="store_true", help="tables only")
 
-    m = sub.add_parser("merge", help="join the shards of one run (bench run --shard K/N) into one run")
-    m.add_argument("dirs", nargs="+", metavar="DIR", help="shard folders")
-    m.add_argument("--out", required=True, help="the merged run's folder (new)")
-    m.add_argument("--no-figures", action="store_true", help="tables only")
 
-    sp = sub.add_parser("speed", help="real-time factors of the simulator and each algorithm on "
-                                      "the shipped worlds (median of --runs, one core)")
-    sp.add_argument("--world", default="all", help="world names or 'all' (default)")
-    sp.add_argument("--algo", help="comma-separated algorithms (default: pf,gn,graph,oracle)")
-    sp.add_argument("--runs", type=positive_int, default=3, help="runs per figure (default 3)")
-    sp.add_argument("--noise", default="realistic", help="sensor-noise profile (default realistic)")
-
-    rep = sub.add_parser("report", help="rebuild summary.md/.csv and figures from results.json")
-    rep.add_argument("dir")
-    rep.add_argument("--no-figures", action="store_true")
-
+def _add_add_command(sub) -> None:
     a = sub.add_parser("add", help="score a map (and trajectory) made elsewhere, e.g. by a ROS "
                                    "SLAM, into a run's results and report")
     a.add_argument("dir", metavar="RUN_DIR", help="a bench run folder (run.json, results.json)")
@@ -83,81 +101,23 @@ def build_parser() -> argparse.ArgumentParser:
                    help="the noise draw whose log it ran on (default 0)")
     a.add_argument("--no-figures", action="store_true", help="rebuild the tables only")
 
-    g = sub.add_parser("regress", help="rerun a small fixed matrix and compare with a baseline")
-    g.add_argument("--baseline", help="baseline JSON (default: bench/baseline.json)")
-    g.add_argument("--update", action="store_true", help="write the baseline instead")
-    g.add_argument("--world", help="worlds of the matrix (default: the baseline's)")
-    g.add_argument("--algo", help="algorithms of the matrix (default: the baseline's)")
-    g.add_argument("--repeats", type=positive_int, help="repeats (default: the baseline's)")
-    g.add_argument("--jobs", type=positive_int, default=None, help="worker processes (default: all cores)")
-    g.add_argument("--out", help="keep the regression run in this directory")
-    return p
-
-
-def _spec_from_args(args):
-    from bench.plan import RunSpec, parse_configs, parse_overrides, parse_worlds, read_log_set, resolve_algos
-    from bench.results import RUN_NAME, read_run, run_spec
-    if sum(bool(v) for v in (args.world, args.suite, args.logs)) > 1:
-        raise InputError("give one of --world, --suite and --logs")
-    given = (args.world, args.suite, args.logs, args.draws, args.min_coverage, args.algo,
-             args.repeats, args.seed, args.noise, args.vary, args.shard)
-    if args.resume:
-        stored = run_spec(read_run(Path(args.resume)), Path(args.resume) / RUN_NAME)
-        if all(v is None for v in given) and not args.config and not args.set:
-            return stored
-        base = stored
-    else:
-        if not args.world and not args.suite and not args.logs:
-            raise InputError("run: --world, --suite or --logs is required (a world name, a YAML "
-                             "file, a list or 'all'; a suite such as 'general'; a folder of logs)")
-        base = None
-    suite = None
-    if args.suite:
-        from bench.suite import load_suite
-        suite = load_suite(args.suite)
-    algos = resolve_algos(args.algo) if args.algo is not None or base is None else list(base.algos)
-    logs, noise = (base.logs, base.noise) if base else ((), None)
-    if suite is not None:
-        worlds, suite_name = suite.worlds, suite.name
-        draws, repeats = suite.draws, 1
-    elif args.logs:
-        found = read_log_set(args.logs)
-        logs = tuple(path for path, *_ in found)
-        worlds = tuple(dict.fromkeys(world for _, world, _, _ in found))
-        noise = ",".join(sorted({n for *_, n in found if n})) or "recorded"
-        suite_name, draws, repeats = "", 1, 10
-    elif args.world:
-        worlds, suite_name, draws, repeats = tuple(parse_worlds(args.world)), "", 1, 10
-    else:
-        worlds, suite_name, draws, repeats = base.worlds, base.suite, base.draws, base.repeats
-    return RunSpec(
-        worlds=worlds,
-        algos=tuple(algos),
-        repeats=args.repeats if args.repeats is not None else repeats,
-        noise=args.noise or noise or (base.noise if base else "realistic"),
-        seed=args.seed if args.seed is not None else (base.seed if base else 0),
-        vary=args.vary or (base.vary if base else "slam"),
-        configs=parse_configs(args.config, algos) if args.config else (base.configs if base else {}),
-        draws=args.draws if args.draws is not None else draws,
-        min_coverage=args.min_coverage if args.min_coverage is not None else
-        (base.min_coverage if base else 0.95),
-        suite=suite_name,
-        logs=logs if not (args.world or args.suite) else (),
-        overrides=parse_overrides(args.set, algos) if args.set else (base.overrides if base else {}),
-        shard=args.shard or (base.shard if base else (1, 1)),
-    )
-
 
 def cmd_run(args, argv) -> int:
     from bench.cache import cache_dir
     from bench.report import write_report
-    from bench.runner import check_run_dir, default_out_dir, print_outcome, run_benchmark
+    from bench.rundir import check_run_dir, default_out_dir
+    from bench.runner import print_outcome, run_benchmark
+    from bench.spec import spec_from_options
     if args.resume and args.out and Path(args.out) != Path(args.resume):
         raise InputError("give either --resume DIR or --out DIR, not both")
     out_dir = check_out_dir(args.resume or args.out or default_out_dir(),
                             "--resume" if args.resume else "--out")
     check_run_dir(out_dir, bool(args.resume))   # before a suite's worlds are generated
-    spec = _spec_from_args(args)
+    spec = spec_from_options(
+        world=args.world, suite=args.suite, logs=args.logs, algo=args.algo, repeats=args.repeats,
+        draws=args.draws, seed=args.seed, noise=args.noise, vary=args.vary,
+        min_coverage=args.min_coverage, configs=args.config, sets=args.set, shard=args.shard,
+        resume=args.resume)
     if not spec.logs:
         cache_dir()  # the logs are recorded into it: a cache that cannot be made fails now
     outcome = run_benchmark(spec, out_dir, jobs=args.jobs, scheduler=args.scheduler,
@@ -219,9 +179,9 @@ def cmd_merge(args) -> int:
 
 
 def cmd_speed(args) -> int:
-    from bench.plan import parse_worlds, resolve_algos
+    from bench.plan import parse_worlds, resolve_algos, shipped_algos
     from bench.speed import speed_table
-    algos = resolve_algos(args.algo) if args.algo else ["pf", "gn", "graph", "oracle"]
+    algos = resolve_algos(args.algo) if args.algo else shipped_algos()
     table = speed_table(parse_worlds(args.world), algos, args.runs, args.noise, stream=sys.stderr)
     print(table)
     return 0

@@ -31,7 +31,7 @@ from worlds.yamlio import InputError, atomic_write_text
 from bench.plan import RunSpec, Task, load_plugins, make_tasks
 from bench.results import (RESULTS_NAME, RUN_NAME, ResultStore, jsonable, read_rows, read_run,
                            run_spec)
-from bench.runner import map_path, read_truth, run_lock, truth_path, write_npz
+from bench.rundir import map_path, read_truth, run_lock, truth_path, write_npz
 from bench.task import DIVERGE_MARGIN_M, _score, new_row, score_trajectory
 
 __all__ = ["add_outside", "render_map", "draw_log_path", "empty_map_problem", "SOURCE"]
@@ -171,41 +171,13 @@ def add_outside(run_dir: str | Path, world: str, algo: str, map_yaml: str | Path
     options do not fit (render with a map, render without a trajectory, neither map nor
     render) or, to render, the draw's log is not there any more.
     """
-    from metrics import read_tum
-    from worlds.mapio import read_map
-    if render and map_yaml is not None:
-        raise InputError("--render builds the map from --trajectory: give --map or --render, "
-                         "not both")
-    if render and trajectory is None:
-        raise InputError("--render needs --trajectory T.tum: the poses to build the map at")
-    if not render and map_yaml is None:
-        raise InputError("give --map MAP.yaml, or --trajectory T.tum with --render")
+    _check_options(map_yaml, trajectory, render)
     run_dir = Path(run_dir)
-    run = read_run(run_dir)
-    if not (run_dir / RESULTS_NAME).is_file():
-        raise InputError(f"{run_dir}: no {RESULTS_NAME} here: not a bench run directory")
-    spec = run_spec(run, run_dir / RUN_NAME)
-    worlds = list(run["worlds"])
-    if world not in worlds:
-        raise InputError(f"--world {world}: not a world of this run (its worlds: "
-                         f"{', '.join(worlds)})")
-    _check_name(algo, spec)
-    rows = read_rows(run_dir)
-    log_seed = _draw_log_seed(spec, worlds, world, draw, rows)
-
+    run, spec, log_seed = _open_run(run_dir, world, algo, draw)
     t0 = time.perf_counter()
     truth, surfaces = read_truth(run_dir, world)   # surfaces None: a run from before them
-    grid = None if render else read_map(map_yaml)
-    times, poses, gt = np.zeros(0), np.zeros((0, 3)), None
-    if trajectory is not None:
-        times, poses = read_tum(trajectory, bounds=_world_bounds(run_dir, world, truth),
-                                margin=DIVERGE_MARGIN_M)
-        gt = _load_npz(run_dir / "maps" / world / f"gt_s{log_seed}.npz",
-                       f"true path of {world} log seed {log_seed}", "times", "poses")
-    if render:
-        from sim.logs import read_log
-        log_file = draw_log_path(run_dir, run, spec, world, log_seed)
-        grid = render_map(read_log(log_file), times, poses, str(trajectory))
+    grid, times, poses, gt = _outside_map(run_dir, run, spec, world, log_seed, map_yaml,
+                                          trajectory, truth)
     row = new_row(Task(world, algo, 0, log_seed, 0, draw), spec.noise, spec.vary)
     row.update(_blank_keys(), slam_seed=None, slam_stats={}, source=SOURCE, rendered=render,
                map_source=None if render else str(Path(map_yaml).resolve()),
@@ -219,7 +191,61 @@ def add_outside(run_dir: str | Path, world: str, algo: str, map_yaml: str | Path
         row.update(score_trajectory(times, poses, gt["times"], gt["poses"]))
     row["score_time_s"] = row["task_time_s"] = time.perf_counter() - t0
     row["worker"] = platform.node()
+    return _store(run_dir, row, grid, times, poses, report, figures)
 
+
+def _check_options(map_yaml, trajectory, render: bool) -> None:
+    """InputError unless exactly one of a map and a rendered trajectory is asked for."""
+    if render and map_yaml is not None:
+        raise InputError("--render builds the map from --trajectory: give --map or --render, "
+                         "not both")
+    if render and trajectory is None:
+        raise InputError("--render needs --trajectory T.tum: the poses to build the map at")
+    if not render and map_yaml is None:
+        raise InputError("give --map MAP.yaml, or --trajectory T.tum with --render")
+
+
+def _open_run(run_dir: Path, world: str, algo: str, draw: int) -> tuple[dict, RunSpec, int]:
+    """(run.json, its spec, the log seed of `world`'s draw `draw`) of the run in `run_dir`;
+    InputError when it is no run, or the world, name or draw do not fit it."""
+    run = read_run(run_dir)
+    if not (run_dir / RESULTS_NAME).is_file():
+        raise InputError(f"{run_dir}: no {RESULTS_NAME} here: not a bench run directory")
+    spec = run_spec(run, run_dir / RUN_NAME)
+    worlds = list(run["worlds"])
+    if world not in worlds:
+        raise InputError(f"--world {world}: not a world of this run (its worlds: "
+                         f"{', '.join(worlds)})")
+    _check_name(algo, spec)
+    return run, spec, _draw_log_seed(spec, worlds, world, draw, read_rows(run_dir))
+
+
+def _outside_map(run_dir: Path, run: dict, spec: RunSpec, world: str, log_seed: int, map_yaml,
+                 trajectory, truth):
+    """(the map as a Grid, trajectory times (N,) s and poses (N, 3), the draw's true path
+    {"times", "poses"} or None without a trajectory): the map read from `map_yaml`, or
+    rendered from the trajectory and the draw's log when there is no map."""
+    from metrics import read_tum
+    from worlds.mapio import read_map
+    grid = None if map_yaml is None else read_map(map_yaml)
+    times, poses, gt = np.zeros(0), np.zeros((0, 3)), None
+    if trajectory is not None:
+        times, poses = read_tum(trajectory, bounds=_world_bounds(run_dir, world, truth),
+                                margin=DIVERGE_MARGIN_M)
+        gt = _load_npz(run_dir / "maps" / world / f"gt_s{log_seed}.npz",
+                       f"true path of {world} log seed {log_seed}", "times", "poses")
+    if map_yaml is None:
+        from sim.logs import read_log
+        log_file = draw_log_path(run_dir, run, spec, world, log_seed)
+        grid = render_map(read_log(log_file), times, poses, str(trajectory))
+    return grid, times, poses, gt
+
+
+def _store(run_dir: Path, row: dict, grid, times, poses, report: bool, figures: bool) -> dict:
+    """Under the run's lock: number the row (the next repeat of its world and name), write its
+    map and trajectory, add it to results.json and run.json's `added`, rebuild the report;
+    the row as stored."""
+    world, algo = row["world"], row["algo"]
     with run_lock(run_dir):
         store = ResultStore(run_dir)
         row["repeat"] = 1 + max((r for w, a, r in store.rows if (w, a) == (world, algo)),
@@ -234,8 +260,8 @@ def add_outside(run_dir: str | Path, world: str, algo: str, map_yaml: str | Path
         run = read_run(run_dir)
         run.setdefault("added", []).append(
             {"at": row["finished_at"], "world": world, "algo": algo, "repeat": row["repeat"],
-             "draw": draw, "map": row["map_source"], "trajectory": row["trajectory_source"],
-             "rendered": render})
+             "draw": row["draw"], "map": row["map_source"],
+             "trajectory": row["trajectory_source"], "rendered": row["rendered"]})
         atomic_write_text((run_dir / RUN_NAME).absolute(),
                           json.dumps(jsonable(run), indent=1) + "\n", root=run_dir)
         if report:

@@ -16,7 +16,7 @@ from worlds.yamlio import InputError, atomic_write_text, short
 from bench.plan import RunSpec
 from bench.results import (RESULTS_NAME, RUN_NAME, ResultStore, jsonable, read_rows, read_run,
                            row_key, run_spec)
-from bench.runner import run_lock
+from bench.rundir import run_lock
 
 __all__ = ["merge_runs"]
 

@@ -24,9 +24,9 @@ from worlds.paths import check_name, is_name
 from worlds.yamlio import InputError, set_override, short, to_dict
 from slam.registry import ENTRY_POINT_GROUP
 
-__all__ = ["RunSpec", "Task", "VARY", "parse_worlds", "resolve_algos", "load_plugins",
-           "parse_configs", "parse_overrides", "read_log_set", "seeds_for", "make_tasks",
-           "shard_tasks", "parse_shard", "ENTRY_POINT_GROUP"]
+__all__ = ["RunSpec", "Task", "VARY", "parse_worlds", "resolve_algos", "shipped_algos",
+           "load_plugins", "parse_configs", "parse_overrides", "read_log_set", "seeds_for",
+           "make_tasks", "shard_tasks", "parse_shard", "ENTRY_POINT_GROUP"]
 
 VARY = ("slam", "data", "both")
 
@@ -231,6 +231,12 @@ def load_plugins() -> list[str]:
     from slam import registry
     registry.algorithms()
     return registry.load_plugins()
+
+
+def shipped_algos() -> list[str]:
+    """The algorithms shipped in this tree (slam.registry.BUILTIN), in the registry's order."""
+    from slam import registry
+    return list(registry.BUILTIN)
 
 
 def resolve_algos(text: str | None) -> list[str]:

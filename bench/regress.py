@@ -140,19 +140,9 @@ def _check_baseline(data: dict, where: str) -> None:
                              f"got {short(v)}")
 
 
-def regress(baseline: str | Path | None = None, update: bool = False, worlds=None, algos=None,
-            repeats: int | None = None, seed: int = 0, noise: str = "realistic",
-            jobs: int | None = None, out: str | Path | None = None, stream=None,
-            progress: bool = True) -> int:
-    """Rerun the baseline's matrix (or the one given) and compare; returns the exit code.
-
-    0: nothing got worse (or update=True wrote the baseline); 1: something got worse (listed
-    on `stream`). Without update the matrix comes from the baseline file unless given.
-    """
-    from bench.runner import print_outcome, run_benchmark
-    stream = stream or sys.stdout
-    path = Path(baseline) if baseline else BASELINE_PATH
-    base = None if update else _load_baseline(path)
+def _matrix(base: dict | None, worlds, algos, repeats, seed: int, noise: str) -> dict:
+    """The matrix to run: the baseline's (none when writing one), with what is given on top
+    and the defaults for the rest; its algorithms checked."""
     matrix = dict(base["matrix"]) if base else {}
     if worlds is not None:
         matrix["worlds"] = list(worlds)
@@ -166,6 +156,23 @@ def regress(baseline: str | Path | None = None, update: bool = False, worlds=Non
     matrix.setdefault("seed", seed)
     matrix.setdefault("noise", noise)
     resolve_algos(",".join(matrix["algos"]))
+    return matrix
+
+
+def regress(baseline: str | Path | None = None, update: bool = False, worlds=None, algos=None,
+            repeats: int | None = None, seed: int = 0, noise: str = "realistic",
+            jobs: int | None = None, out: str | Path | None = None, stream=None,
+            progress: bool = True) -> int:
+    """Rerun the baseline's matrix (or the one given) and compare; returns the exit code.
+
+    0: nothing got worse (or update=True wrote the baseline); 1: something got worse (listed
+    on `stream`). Without update the matrix comes from the baseline file unless given.
+    """
+    from bench.runner import print_outcome, run_benchmark
+    stream = stream or sys.stdout
+    path = Path(baseline) if baseline else BASELINE_PATH
+    base = None if update else _load_baseline(path)
+    matrix = _matrix(base, worlds, algos, repeats, seed, noise)
     spec = RunSpec(worlds=tuple(matrix["worlds"]), algos=tuple(matrix["algos"]),
                    repeats=int(matrix["repeats"]), noise=matrix["noise"], seed=int(matrix["seed"]),
                    vary="slam")

@@ -4,42 +4,39 @@
 surfaces saved under DIR/maps/<world>/truth.npz), records each missing log once (in parallel
 across worlds and seeds), submits a world's SLAM tasks as soon as its log exists, and stores
 every finished row at once (results.json rewritten atomically, map and trajectory in
-DIR/maps/<world>/<algo>/<repeat>.npz). Ctrl-C or a dead worker loses nothing stored;
-`resume=True` runs only the rows missing from results.json, with the seeds of run.json.
-A log that cannot be trusted (sim.recording_problem: the robot got stuck, the time limit
-ran out, or the lidar saw less than spec.min_coverage of the true walls) runs no SLAM: its
-rows are stored as failed with the reason, so they show in the report and in no average.
+DIR/maps/<world>/<algo>/<repeat>.npz; the folder's files: bench.rundir). Ctrl-C or a dead
+worker loses nothing stored; `resume=True` runs only the rows missing from results.json, with
+the seeds of run.json. A log that cannot be trusted (sim.recording_problem: the robot got
+stuck, the time limit ran out, or the lidar saw less than spec.min_coverage of the true walls)
+runs no SLAM: its rows are stored as failed with the reason, so they show in the report and in
+no average.
+
+The run reads as its steps: `_open_run` (the folder, the spec of a resumed run, every input
+checked), `_prepare` (the worlds' truths, the configs, the tasks still to do: a RunPlan), then
+a `Scheduler` whose methods are the events of the run (a log is ready, the compile jobs are
+done, a task is done).
 """
 from __future__ import annotations
 
-import contextlib
 import datetime as _dt
-import fcntl
-import io
-import json
-import os
 import sys
 import tempfile
 from concurrent.futures.process import BrokenProcessPool
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from worlds.paths import path_inside
-from worlds.yamlio import InputError, atomic_write_bytes, atomic_write_text, short
+from worlds.yamlio import InputError
 from bench import cache
 from bench.executors import make_executor
-from bench.plan import (RunSpec, Task, config_dict, load_config_checked, load_plugins, make_tasks,
-                        shard_tasks)
+from bench.plan import RunSpec, Task, load_config_checked, load_plugins, make_tasks, shard_tasks
 from bench.progress import Progress
-from bench.results import RESULTS_NAME, RUN_NAME, ResultStore, jsonable, read_run, run_spec
-from bench.task import WorldInfo, compile_algorithm, execute, new_row, record_log, versions
+from bench.results import RUN_NAME, ResultStore, read_run, run_spec
+from bench.rundir import check_run_dir, run_lock, save_arrays, save_gt, save_truth, write_run_json
+from bench.task import WorldInfo, compile_algorithm, execute, new_row, record_log
 
-__all__ = ["run_benchmark", "RunOutcome", "load_worlds", "default_out_dir", "read_run",
-           "map_path", "truth_path", "read_truth", "run_lock", "write_npz", "LOCK_NAME"]
-
-LOCK_NAME = ".lock"   # held (flock) by the run writing into the folder; holds its pid
+__all__ = ["run_benchmark", "RunOutcome", "RunPlan", "Scheduler", "load_worlds", "print_outcome"]
 
 
 @dataclass
@@ -58,25 +55,36 @@ class RunOutcome:
         return self.ok + self.failed == self.total and not self.interrupted and not self.crashed
 
 
-# cold numba compile cost of the built-in algorithms (s, this machine: pf 12, graph 8, gn 4,
-# oracle 1); the compile jobs go out heaviest first so the workers finish them together
-COMPILE_ORDER = {"pf": 12.0, "graph": 8.0, "gn": 4.0, "oracle": 1.0}
+@dataclass
+class RunPlan:
+    """What a run needs, prepared before any job is sent: the worlds (World, YAML file, what a
+    worker gets of each), each algorithm's config and class, the given logs of a --logs run
+    ((world key, seed) -> path), the tasks still to do grouped by their log, and the count of
+    all tasks of the run (its shard)."""
 
+    spec: RunSpec
+    out_dir: Path
+    worlds: dict
+    world_files: dict
+    infos: dict[str, WorldInfo]
+    configs: dict
+    classes: dict[str, type]
+    given: dict[tuple[str, int], Path]
+    by_log: dict[tuple[str, int], list[Task]] = field(default_factory=dict)
+    total: int = 0
 
-def default_out_dir() -> Path:
-    """runs/<UTC timestamp> under the current directory."""
-    return Path("runs") / _dt.datetime.now(_dt.timezone.utc).strftime("%Y%m%d-%H%M%S")
+    def log_path(self, lkey: tuple[str, int]) -> Path:
+        """Where the log of (world key, log seed) is: the given file, else the log cache."""
+        return self.given.get(lkey) or self.cached_log_path(lkey)
 
+    def cached_log_path(self, lkey: tuple[str, int]) -> Path:
+        """Where the log cache keeps (or a recording puts) the log of (world key, log seed)."""
+        key, seed = lkey
+        return cache.log_path(self.worlds[key], seed, self.spec.noise, self.world_files[key])
 
-def map_path(out_dir: Path, world: str, algo: str, repeat: int) -> Path:
-    """DIR/maps/WORLD/ALGO/REPEAT.npz; InputError when the names would lead outside DIR."""
-    return path_inside(out_dir, "maps", world, algo, f"{int(repeat)}.npz",
-                       what=f"{out_dir}: map of {short(world)}/{short(algo)}")
-
-
-def truth_path(out_dir: Path, world: str) -> Path:
-    """DIR/maps/WORLD/truth.npz; InputError when the name would lead outside DIR."""
-    return path_inside(out_dir, "maps", world, "truth.npz", what=f"{out_dir}: truth of {short(world)}")
+    def compile_order(self) -> list[str]:
+        """The run's algorithms, the costliest to compile first (Slam.compile_cost_s)."""
+        return sorted(self.spec.algos, key=lambda a: -self.classes[a].compile_cost_s)
 
 
 def load_worlds(names: list[str]):
@@ -100,16 +108,6 @@ def load_worlds(names: list[str]):
     return out, files
 
 
-def check_run_dir(out_dir: Path, resume: bool) -> None:
-    """InputError unless `out_dir` can take a new run (no results yet) or, with `resume`, holds one."""
-    holds = [n for n in (RESULTS_NAME, RUN_NAME) if (out_dir / n).exists()]
-    if holds and not resume:
-        raise InputError(f"{out_dir} already holds another run's results ({', '.join(holds)}); "
-                         f"use --resume {out_dir} to complete it, or choose another --out")
-    if resume and not (out_dir / RUN_NAME).exists():
-        raise InputError(f"--resume {out_dir}: no {RUN_NAME} there: nothing to resume")
-
-
 def _check_cache_writable(spec: RunSpec, world_map: dict, world_files: dict) -> None:
     """InputError naming the log cache when a log must be recorded and the cache cannot take
     it (checked by writing, so a read-only folder is caught for root too); a read-only cache
@@ -126,89 +124,16 @@ def _check_cache_writable(spec: RunSpec, world_map: dict, world_files: dict) -> 
                          "folder that can be written)") from None
 
 
-def write_npz(path: Path, **arrays) -> None:
-    """A compressed .npz written atomically under a unique temporary name."""
-    buf = io.BytesIO()
-    np.savez_compressed(buf, **{k: np.asarray(v) for k, v in arrays.items()})
-    atomic_write_bytes(path, buf.getvalue())
-
-
-def _save_truth(out_dir: Path, key: str, world, truth) -> None:
-    write_npz(truth_path(out_dir, key), prob=truth.prob, resolution=truth.resolution,
-              origin=truth.origin, bounds=np.asarray(world.bounds, dtype=np.float64),
-              surfaces=np.asarray(world.visible_segments, dtype=np.float64).reshape(-1, 4))
-
-
-def read_truth(out_dir: Path, key: str):
-    """(true Grid, visible surfaces (S, 4) m or None) of world `key` stored by a run; a run
-    written before the surfaces were stored gives None (its maps are scored in the cell form).
-    InputError if the file is missing."""
-    from worlds.grid import Grid
-    p = truth_path(out_dir, key)
-    if not p.is_file():
-        raise InputError(f"{p}: missing: the run's true map of {key} is needed")
-    with np.load(p) as z:
-        grid = Grid(z["prob"], float(z["resolution"]), z["origin"])
-        surfaces = np.asarray(z["surfaces"], dtype=np.float64) if "surfaces" in z else None
-    return grid, surfaces
-
-
-def _save_gt(out_dir: Path, key: str, seed: int, log) -> None:
-    """True trajectory of the log (for the trajectory figure), once per world and log seed."""
-    p = path_inside(out_dir, "maps", key, f"gt_s{int(seed)}.npz", what=f"true trajectory of {short(key)}")
-    if not p.exists() and log is not None and log.has_ground_truth:
-        write_npz(p, times=log.gt_t, poses=log.gt_pose)
-
-
-def _save_arrays(out_dir: Path, task: Task, arrays: dict | None) -> str | None:
-    if arrays is None:
-        return None
-    p = map_path(out_dir, task.world, task.algo, task.repeat)
-    write_npz(p, **arrays)
-    return str(p.relative_to(out_dir))
-
-
-@contextlib.contextmanager
-def run_lock(out_dir: Path):
-    """Hold DIR/.lock (an exclusive flock holding the pid) while a run writes into DIR; a second
-    run on the same folder gets an InputError naming the holder's pid."""
-    out_dir.mkdir(parents=True, exist_ok=True)
-    path = out_dir / LOCK_NAME
-    fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
-    try:
-        try:
-            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except BlockingIOError:
-            holder = os.pread(fd, 32, 0).decode(errors="replace").strip() or "?"
-            raise InputError(f"{out_dir}: in use by another bench run (pid {holder}); wait for it "
-                             "to finish or stop it") from None
-        os.ftruncate(fd, 0)
-        os.pwrite(fd, f"{os.getpid()}\n".encode(), 0)
-        yield
-    finally:
-        os.close(fd)
-
-
-def _write_run_json(out_dir: Path, spec: RunSpec, world_map: dict, world_files: dict, argv: list[str] | None,
-                    resumed_from: dict | None) -> None:
-    data = resumed_from or {}
-    data.update({
-        "spec": spec.to_json(),
-        "command": data.get("command") or ["python", "-m", "bench", *(argv or [])],
-        "versions": versions(),
-        "worlds": {k: {"name": w.name, "file": str(world_files[k] or "")}
-                   for k, w in world_map.items()},
-        "configs": {a: config_dict(a, spec.configs.get(a), spec.overrides.get(a))
-                    for a in spec.algos},
-    })
-    if resumed_from is not None:
-        data.setdefault("resumed", []).append({
-            "at": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
-            "command": ["python", "-m", "bench", *(argv or [])]})
-    else:
-        data["started"] = _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds")
-    out_dir.mkdir(parents=True, exist_ok=True)
-    atomic_write_text(out_dir / RUN_NAME, json.dumps(jsonable(data), indent=1) + "\n")
+def _check_inputs(spec: RunSpec):
+    """Load every file the run names (configs, noise profile, worlds) before any work, so a
+    bad one fails now; the worlds as load_worlds gives them."""
+    load_plugins()
+    for algo in spec.algos:
+        load_config_checked(algo, spec.configs.get(algo), spec.overrides.get(algo))
+    import sim
+    if hasattr(sim, "load_profile") and not spec.logs:
+        sim.load_profile(spec.noise)
+    return load_worlds(list(spec.worlds))
 
 
 def run_benchmark(spec: RunSpec, out_dir: str | Path, jobs: int | None = None,
@@ -222,23 +147,22 @@ def run_benchmark(spec: RunSpec, out_dir: str | Path, jobs: int | None = None,
     """
     out_dir = Path(out_dir)
     with run_lock(out_dir):
-        return _run_locked(spec, out_dir, jobs, scheduler, resume, progress, argv, stream)
+        world_map, world_files = _open_run(spec, out_dir, resume, argv)
+        store = ResultStore(out_dir)
+        plan = _prepare(spec, out_dir, world_map, world_files, store)
+        todo = sum(len(ts) for ts in plan.by_log.values())
+        bar = Progress(todo, already=plan.total - todo, stream=stream, enabled=progress)
+        outcome = _stored_outcome(out_dir, plan.total, store)
+        if not todo:
+            bar.close()
+            return outcome
+        return Scheduler(plan, store, bar, outcome, make_executor(jobs, scheduler),
+                         remote=scheduler is not None).run()
 
 
-def _check_inputs(spec: RunSpec):
-    """Load every file the run names (configs, noise profile, worlds) before any work, so a
-    bad one fails now; the worlds as load_worlds gives them."""
-    load_plugins()
-    for algo in spec.algos:
-        load_config_checked(algo, spec.configs.get(algo), spec.overrides.get(algo))
-    import sim
-    if hasattr(sim, "load_profile") and not spec.logs:
-        sim.load_profile(spec.noise)
-    return load_worlds(list(spec.worlds))
-
-
-def _run_locked(spec: RunSpec, out_dir: Path, jobs, scheduler, resume, progress, argv,
-                stream) -> RunOutcome:
+def _open_run(spec: RunSpec, out_dir: Path, resume: bool, argv) -> tuple[dict, dict]:
+    """Check the folder (and that a resumed run's spec is `spec`) and every input, then write
+    run.json; the worlds as load_worlds gives them."""
     check_run_dir(out_dir, resume)
     previous = read_run(out_dir) if resume else None
     if previous is not None and run_spec(previous, out_dir / RUN_NAME) != spec:
@@ -251,40 +175,49 @@ def _run_locked(spec: RunSpec, out_dir: Path, jobs, scheduler, resume, progress,
             raise
         # the files a resumed run names come from its run.json, not from the command line
         raise InputError(f"{out_dir / RUN_NAME}: spec: {err}") from None
-    import sim
     if not spec.logs:
         _check_cache_writable(spec, world_map, world_files)
-    _write_run_json(out_dir, spec, world_map, world_files, argv, previous)
-    store = ResultStore(out_dir)
+    write_run_json(out_dir, spec, world_map, world_files, argv, previous)
+    return world_map, world_files
 
+
+def _prepare(spec: RunSpec, out_dir: Path, world_map: dict, world_files: dict,
+             store: ResultStore) -> RunPlan:
+    """The RunPlan of the tasks not in `store`; each world's truth is rasterized and saved."""
     import worlds
     infos = {}
     for key, w in world_map.items():
         truth = worlds.rasterize(w)
         infos[key] = WorldInfo(key, truth, tuple(float(v) for v in w.bounds), str(w.source or ""),
                                np.asarray(w.visible_segments, dtype=np.float64).reshape(-1, 4))
-        _save_truth(out_dir, key, w, truth)
+        save_truth(out_dir, key, w, truth)
     configs = {a: load_config_checked(a, spec.configs.get(a), spec.overrides.get(a))
                for a in spec.algos}
     from slam import registry
-    algo_classes = {a: registry.get(a) for a in spec.algos}
+    plan = RunPlan(spec, out_dir, world_map, world_files, infos, configs,
+                   {a: registry.get(a) for a in spec.algos}, _given_logs(spec, world_map))
+    all_tasks = shard_tasks(make_tasks(spec, list(world_map),
+                                       list(plan.given) if spec.logs else None), spec.shard)
+    plan.total = len(all_tasks)
+    for t in all_tasks:
+        if t.key not in store:
+            plan.by_log.setdefault((t.world, t.log_seed), []).append(t)
+    return plan
 
-    # --logs: the given files are the logs (world key, seed) -> path; nothing is recorded
+
+def _given_logs(spec: RunSpec, world_map: dict) -> dict[tuple[str, int], Path]:
+    """--logs: the given files are the logs, (world key, seed) -> path; {} otherwise."""
+    if not spec.logs:
+        return {}
+    from bench.plan import read_log_set
     key_of = dict(zip(spec.worlds, world_map))
-    given = {}
-    if spec.logs:
-        from bench.plan import read_log_set
-        given = {(key_of[world], seed): Path(path)
-                 for path, world, seed, _ in read_log_set(",".join(spec.logs))}
-    all_tasks = shard_tasks(make_tasks(spec, list(world_map), list(given) if spec.logs else None),
-                            spec.shard)
-    todo = [t for t in all_tasks if t.key not in store]
-    by_log: dict[tuple[str, int], list[Task]] = {}
-    for t in todo:
-        by_log.setdefault((t.world, t.log_seed), []).append(t)
+    return {(key_of[world], seed): Path(path)
+            for path, world, seed, _ in read_log_set(",".join(spec.logs))}
 
-    bar = Progress(len(todo), already=len(all_tasks) - len(todo), stream=stream, enabled=progress)
-    outcome = RunOutcome(out_dir, len(all_tasks), 0, 0)
+
+def _stored_outcome(out_dir: Path, total: int, store: ResultStore) -> RunOutcome:
+    """The outcome before any job: the run's rows already stored (a resume), ok or failed."""
+    outcome = RunOutcome(out_dir, total, 0, 0)
     for row in store.rows.values():
         if row.get("source") == "outside":
             continue  # added by `bench add`, not a task of this run
@@ -292,102 +225,135 @@ def _run_locked(spec: RunSpec, out_dir: Path, jobs, scheduler, resume, progress,
             outcome.ok += 1
         else:
             outcome.failed += 1
-    if not todo:
-        bar.close()
-        return outcome
+    return outcome
 
-    ex = make_executor(jobs, scheduler)
-    remote = scheduler is not None
-    pending: dict = {}  # future -> ("log", (world, seed)) | ("task", Task) | ("compile", algo)
-    shared: dict = {}   # scattered world infos / configs (Dask: sent once)
 
-    def world_handle(key):
-        if key not in shared:
-            shared[key] = ex.scatter(infos[key]) if remote else infos[key]
-        return shared[key]
+def _now() -> str:
+    return _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds")
 
-    warming: set = set()      # futures of compile jobs still running
-    deferred: list = []       # (log key, log source) whose tasks wait for the compile jobs
-    compile_started = False
 
-    def submit_tasks(lkey, log_source):
-        nonlocal compile_started
-        if not compile_started:
-            # One compile job per algorithm, heaviest first, before any SLAM task: the workers
-            # compile side by side instead of each compiling every algorithm itself.
-            compile_started = True
-            for a in sorted(spec.algos, key=lambda a: -COMPILE_ORDER.get(a, 0)):
-                fut = ex.submit(compile_algorithm, a, log_source, configs[a], algo_classes[a])
-                pending[fut] = ("compile", a)
-                warming.add(fut)
-        if warming:
-            deferred.append((lkey, log_source))
-            return
-        for t in by_log[lkey]:
-            fut = ex.submit(execute, t, world_handle(t.world), log_source, configs[t.algo],
-                            spec.noise, spec.vary, algo_classes[t.algo])
-            pending[fut] = ("task", t)
+class Scheduler:
+    """Sends a run's jobs to the executor as their inputs become ready; each method named for
+    an event handles it.
 
-    def log_ready(lkey, path, log=None):
+    `run` looks for every log (found in the cache or given: `log_ready`; else a recording job,
+    whose end is `log_recorded`). The first ready log sends one compile job per algorithm,
+    costliest first, so the workers compile side by side instead of each compiling every
+    algorithm itself; a ready log's SLAM tasks wait until every compile job is done
+    (`compile_done`). A log that cannot be trusted gives failed rows instead of tasks. Each
+    finished task (`task_done`) stores its row and arrays at once.
+    """
+
+    def __init__(self, plan: RunPlan, store: ResultStore, bar: Progress, outcome: RunOutcome,
+                 ex, remote: bool = False):
+        self.plan, self.spec, self.store = plan, plan.spec, store
+        self.bar, self.outcome = bar, outcome
+        self.ex, self.remote = ex, remote
+        self.pending: dict = {}   # future -> (event method, what it finished)
+        self.shared: dict = {}    # world key -> its WorldInfo as sent (Dask: scattered once)
+        self.warming: set = set()   # compile jobs still running
+        self.waiting: list = []     # (log key, log source) whose tasks wait for the compile jobs
+        self.compile_started = False
+
+    def run(self) -> RunOutcome:
+        """Every job of the plan, until none is pending (or Ctrl-C, or a worker died)."""
+        try:
+            for lkey in self.plan.by_log:
+                path = self.plan.log_path(lkey)
+                if path.exists():
+                    self.log_ready(lkey, path)
+                else:
+                    self.bar.note(f"recording {lkey[0]} seed {lkey[1]}")
+                    self._submit(self.log_recorded, lkey, record_log,
+                                 self.plan.worlds[lkey[0]], lkey[1], self.spec.noise)
+            while self.pending:
+                done, _ = self.ex.wait_any(list(self.pending))
+                for fut in done:
+                    event, what = self.pending.pop(fut)
+                    event(fut, what)
+        except KeyboardInterrupt:
+            self.outcome.interrupted = True
+        except BrokenProcessPool as err:
+            self.outcome.crashed = f"a worker process died ({err})"
+        finally:
+            self.bar.close()
+            self.ex.shutdown(cancel=bool(self.pending))
+        return self.outcome
+
+    def _submit(self, event, what, fn, *args):
+        fut = self.ex.submit(fn, *args)
+        self.pending[fut] = (event, what)
+        return fut
+
+    def log_recorded(self, fut, lkey: tuple[str, int]) -> None:
+        """A recording job ended: write its log into the cache, then it is ready."""
+        import sim
+        log = self.ex.result(fut)
+        path = self.plan.cached_log_path(lkey)
+        sim.write_log(log, path)
+        self.log_ready(lkey, path, log)
+
+    def log_ready(self, lkey: tuple[str, int], path: Path, log=None) -> None:
+        """The log of (world key, seed) is at `path`: save its true path, then send its tasks,
+        or store them as failed when the log cannot be trusted."""
+        import sim
         if log is None:
             log = _read(path)  # cheap next to a SLAM run; gives the true path for the figures
-        _save_gt(out_dir, lkey[0], lkey[1], log)
-        problem = sim.recording_problem(log.meta, spec.min_coverage)
+        save_gt(self.plan.out_dir, lkey[0], lkey[1], log)
+        problem = sim.recording_problem(log.meta, self.spec.min_coverage)
         if problem is None:
-            submit_tasks(lkey, ex.scatter(log) if remote else str(path))
-            return
-        bar.note(f"{lkey[0]} seed {lkey[1]}: {problem}")
-        for t in by_log[lkey]:
-            row = new_row(t, spec.noise, spec.vary)
-            row.update(status="failed", error=problem, map_file=None,
-                       finished_at=_dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"))
-            store.add(row)
-            outcome.failed += 1
-            bar.advance(t.label + f" ({problem[:50]})", False)
+            self._send_tasks(lkey, self.ex.scatter(log) if self.remote else str(path))
+        else:
+            self._fail_tasks(lkey, problem)
 
-    try:
-        for lkey in by_log:
-            key, seed = lkey
-            path = given.get(lkey) or cache.log_path(world_map[key], seed, spec.noise,
-                                                     world_files[key])
-            if path.exists():
-                log_ready(lkey, path)
-            else:
-                bar.note(f"recording {key} seed {seed}")
-                pending[ex.submit(record_log, world_map[key], seed, spec.noise)] = ("log", lkey)
-        while pending:
-            done, _ = ex.wait_any(list(pending))
-            for fut in done:
-                kind, what = pending.pop(fut)
-                if kind == "compile":
-                    warming.discard(fut)
-                    if not warming:
-                        for args in deferred:
-                            submit_tasks(*args)
-                        deferred.clear()
-                    continue
-                if kind == "log":
-                    log = ex.result(fut)
-                    path = cache.log_path(world_map[what[0]], what[1], spec.noise, world_files[what[0]])
-                    sim.write_log(log, path)
-                    log_ready(what, path, log)
-                    continue
-                row, arrays = ex.result(fut)
-                row["map_file"] = _save_arrays(out_dir, what, arrays)
-                row["finished_at"] = _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds")
-                store.add(row)
-                ok = row["status"] == "ok"
-                outcome.ok += ok
-                outcome.failed += not ok
-                bar.advance(what.label + ("" if ok else f" ({str(row['error'])[:50]})"), ok)
-    except KeyboardInterrupt:
-        outcome.interrupted = True
-    except BrokenProcessPool as err:
-        outcome.crashed = f"a worker process died ({err})"
-    finally:
-        bar.close()
-        ex.shutdown(cancel=bool(pending))
-    return outcome
+    def _send_tasks(self, lkey: tuple[str, int], log_source) -> None:
+        if not self.compile_started:
+            self.compile_started = True
+            for a in self.plan.compile_order():
+                self.warming.add(self._submit(self.compile_done, a, compile_algorithm, a,
+                                              log_source, self.plan.configs[a],
+                                              self.plan.classes[a]))
+        if self.warming:
+            self.waiting.append((lkey, log_source))
+            return
+        for t in self.plan.by_log[lkey]:
+            self._submit(self.task_done, t, execute, t, self._world(t.world), log_source,
+                         self.plan.configs[t.algo], self.spec.noise, self.spec.vary,
+                         self.plan.classes[t.algo])
+
+    def _fail_tasks(self, lkey: tuple[str, int], problem: str) -> None:
+        self.bar.note(f"{lkey[0]} seed {lkey[1]}: {problem}")
+        for t in self.plan.by_log[lkey]:
+            row = new_row(t, self.spec.noise, self.spec.vary)
+            row.update(status="failed", error=problem, map_file=None, finished_at=_now())
+            self.store.add(row)
+            self.outcome.failed += 1
+            self.bar.advance(t.label + f" ({problem[:50]})", False)
+
+    def _world(self, key: str):
+        if key not in self.shared:
+            info = self.plan.infos[key]
+            self.shared[key] = self.ex.scatter(info) if self.remote else info
+        return self.shared[key]
+
+    def compile_done(self, fut, algo: str) -> None:
+        """One compile job ended; once all have, the waiting logs' tasks go out."""
+        self.warming.discard(fut)
+        if not self.warming:
+            waiting, self.waiting = self.waiting, []
+            for lkey, log_source in waiting:
+                self._send_tasks(lkey, log_source)
+
+    def task_done(self, fut, task: Task) -> None:
+        """A SLAM task ended: store its arrays and row (results.json rewritten at once)."""
+        row, arrays = self.ex.result(fut)
+        row["map_file"] = save_arrays(self.plan.out_dir, task, arrays)
+        row["finished_at"] = _now()
+        self.store.add(row)
+        ok = row["status"] == "ok"
+        self.outcome.ok += ok
+        self.outcome.failed += not ok
+        self.bar.advance(task.label + ("" if ok else f" ({str(row['error'])[:50]})"), ok)
 
 
 def _read(path):

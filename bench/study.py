@@ -1,19 +1,18 @@
 """The reference study's published numbers (Zi, Wang, Santos, Zheng, "A new metric for
 assessing the performance of 2D Lidar SLAMs", CERC 2020; Tables 1 and 2), for the reports.
 
-Each of our algorithms stands beside the study's run of its family: pf beside Gmapping, gn
-beside Hector, graph beside Cartographer. Values: (mean, std) over the study's 10 runs on
+Each of our algorithms stands beside the study's run of the family its class names
+(slam.base.Slam.family): pf beside Gmapping, gn beside Hector, graph beside Cartographer, and
+a plugin beside the family it declares. Values: (mean, std) over the study's 10 runs on
 one recorded data set per world; ADNN in cells of 0.05 m. The paper prints the same std rows
 under precision and sensitivity for Gmapping and Cartographer; they are kept as printed.
 """
 from __future__ import annotations
 
-__all__ = ["STUDY_WORLDS", "FAMILY", "STUDY"]
+__all__ = ["STUDY_WORLDS", "STUDY", "family_of"]
 
 STUDY_WORLDS = ("rectangle_s", "rectangle_m", "rectangle_l", "swirl_s", "swirl_m", "swirl_l",
                 "corridor")
-# our algorithm -> the study's algorithm of the same family
-FAMILY = {"pf": "Gmapping", "gn": "Hector", "graph": "Cartographer"}
 
 
 def _table(means, stds):
@@ -44,3 +43,11 @@ STUDY = {
         "sensitivity": _table((1.00, 1.00, 0.34, 1.00, 1.00, 0.19, 0.62), (0.0,) * 7),
     },
 }
+
+
+def family_of(algo: str) -> str | None:
+    """The study's algorithm `algo` stands beside: its class's `family` when the study ran that
+    family; None for the oracle, an algorithm of another family and a map scored elsewhere."""
+    from slam.registry import find
+    family = getattr(find(algo), "family", None)
+    return family if family in STUDY else None

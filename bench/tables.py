@@ -6,17 +6,18 @@ precision / sensitivity / F1 are the surface form's (metrics.surface: the walls'
 within tau) in every world whose successful rows all have it (simulated worlds); in a world
 whose truth is only a raster they are the study's exact-cell rule, marked "(cell)". The
 study's cell rule stands beside in its own tables and beside the study's published numbers.
-We add the cell rule at a tolerance of 1 cell, ATE, RPE and the real-time factor; the oracle
-(maps with the true poses) is the last column: the ceiling a SLAM could reach with perfect
-poses. The tables and the CSV columns are the columns of metrics.registry: a column with a
-section joins that table, every other one with a value gets a table under "More metrics".
+We add the cell rule at a tolerance of 1 cell, ATE, RPE and the real-time factor. Columns
+follow algo_order; an algorithm whose class uses the ground truth (the oracle: maps with the
+true poses) is the last column: the ceiling a SLAM could reach with perfect poses. The tables
+and the CSV columns are the columns of metrics.registry: a column with a section joins that
+table, every other one with a value gets a table under "More metrics".
 Statistics use the rows with status "ok"; std is the sample standard deviation (ddof=1,
 0 for a single repeat); failures are counted in their own table.
 A run with several noise draws per world (a suite) also gets, per world, the mean and std
-over the draws (each draw first averaged over its repeats), the oracle's score as the
-world's ceiling and each algorithm's gap to it, and an overall table: the mean over worlds.
-Whenever the study's seven worlds are in the run, the study's published numbers (bench.study)
-stand beside ours.
+over the draws (each draw first averaged over its repeats), the ceiling's score and each
+algorithm's gap to it, and an overall table: the mean over worlds. Whenever the study's worlds
+are in the run, the study's published numbers (bench.study) stand beside each algorithm of a
+family the study ran (the class's `family`).
 """
 from __future__ import annotations
 
@@ -29,11 +30,12 @@ import numpy as np
 
 from metrics import registry
 from metrics.registry import Column
+from slam import registry as algo_registry
 from worlds.yamlio import atomic_write_text
 
 __all__ = ["aggregate", "summary_markdown", "summary_csv", "write_tables", "mean_std",
            "algo_order", "world_order", "over_draws", "draw_means", "surface_worlds", "main_key",
-           "surface_label"]
+           "surface_label", "is_ceiling"]
 
 
 def mean_std(values) -> tuple[float, float, int]:
@@ -45,12 +47,19 @@ def mean_std(values) -> tuple[float, float, int]:
     return float(v.mean()), float(v.std(ddof=1)) if len(v) > 1 else 0.0, len(v)
 
 
+def is_ceiling(algo: str) -> bool:
+    """Whether `algo` maps with the true poses (its class's uses_ground_truth: the oracle): the
+    ceiling the others are read against. False for a name no class is registered under."""
+    return bool(getattr(algo_registry.find(algo), "uses_ground_truth", False))
+
+
 def algo_order(algos) -> list[str]:
-    """pf, gn, graph, others alphabetically, the oracle last (the ceiling column)."""
+    """The shipped algorithms in the registry's order, then the others (plugins, maps scored
+    elsewhere) alphabetically; the ceilings (is_ceiling) last, in the same order."""
     algos = list(dict.fromkeys(algos))
-    head = [a for a in ("pf", "gn", "graph") if a in algos]
-    rest = sorted(a for a in algos if a not in head and a != "oracle")
-    return head + rest + (["oracle"] if "oracle" in algos else [])
+    shipped = [a for a in algo_registry.BUILTIN if a in algos]
+    ordered = shipped + sorted(a for a in algos if a not in shipped)
+    return ([a for a in ordered if not is_ceiling(a)] + [a for a in ordered if is_ceiling(a)])
 
 
 def world_order(rows: list[dict], run: dict | None = None) -> list[str]:
@@ -157,87 +166,105 @@ def _gap(ceiling: dict[int, float] | None, mine: dict[int, float] | None) -> flo
     return float(np.mean([ceiling[d] - mine[d] for d in common])) if common else None
 
 
+_PS = (("precision", "P"), ("sensitivity", "S"))
+
+
 def _draw_sections(worlds, algos, rows: list[dict], agg: dict) -> list[str]:
-    """Per-world mean ± std over draws, the gap to the oracle, and the mean over worlds;
+    """Per-world mean ± std over draws, the gap to the ceiling, and the mean over worlds;
     agg: aggregate(rows), for the row and failure counts."""
     surface = surface_worlds(rows)
     forms = _fallbacks()
     ps_keys = {k for m in ("precision", "sensitivity") for k in (m, forms.get(m, m))}
     per_draw = {m: draw_means(rows, m) for m in (*sorted(ps_keys), "adnn_cells", "ate_m")}
     stats = {m: {k: mean_std(v.values()) for k, v in d.items()} for m, d in per_draw.items()}
-    failed = {k: g["failed"] for k, g in agg.items()}
-    total = {k: g["n"] for k, g in agg.items()}
-    ps = [("precision", "P"), ("sensitivity", "S")]
-    head = [f"{_head(a)} {lab}" for a in algos for _, lab in ps]
+    gaps, gap_lines = _gap_section(worlds, algos, per_draw, surface)
+    return (_over_draws_section(worlds, algos, rows, agg, stats, surface) + gap_lines
+            + _overall_section(worlds, algos, rows, agg, stats, gaps, surface))
+
+
+def _over_draws_section(worlds, algos, rows, agg, stats, surface) -> list[str]:
+    """Precision and sensitivity per world, mean ± std over the draws' means."""
+    head = [f"{_head(a)} {lab}" for a in algos for _, lab in _PS]
     out = [f"## Across noise draws: precision (P) and sensitivity (S) ({surface_label(rows)}), "
            "mean ± std over draws", "", *_form_note(rows, worlds),
            "| world | " + " | ".join(head) + " |", "|---" * (len(head) + 1) + "|"]
     for w in worlds:
         cells = []
         for a in algos:
-            for m, _ in ps:
+            for m, _ in _PS:
                 c = _cell(stats[main_key(m, w, surface)].get((w, a), (math.nan, math.nan, 0)), 3)
                 if c != "–" and w not in surface:
                     c += " (cell)"
-                if m == "precision" and failed.get((w, a)):
-                    c += f" ({failed[(w, a)]}/{total[(w, a)]} failed)"
+                g = agg.get((w, a))
+                if m == "precision" and g and g["failed"]:
+                    c += f" ({g['failed']}/{g['n']} failed)"
                 cells.append(c)
         out.append(f"| {w} | " + " | ".join(cells) + " |")
-    out.append("")
-    slams = [a for a in algos if a != "oracle"]
+    return out + [""]
+
+
+def _gap_section(worlds, algos, per_draw, surface) -> tuple[dict, list[str]]:
+    """({(world, algo, metric): ceiling - algo}, the table of those gaps): the first ceiling
+    of the run (is_ceiling) against every other algorithm; nothing without a ceiling."""
+    ceilings = [a for a in algos if is_ceiling(a)]
+    slams = [a for a in algos if not is_ceiling(a)]
+    if not ceilings or not slams:
+        return {}, []
+    ceiling = ceilings[0]
+    head = [f"{a} {lab}" for a in slams for _, lab in _PS]
+    out = [f"## Gap to the ceiling: {ceiling} − algorithm, mean over the draws both finished "
+           "(lower is better)", "",
+           "| world | " + " | ".join(head) + " |", "|---" * (len(head) + 1) + "|"]
     gaps: dict[tuple[str, str, str], float] = {}
-    if "oracle" in algos and slams:
-        head = [f"{a} {lab}" for a in slams for _, lab in ps]
-        out += ["## Gap to the ceiling: oracle − algorithm, mean over the draws both finished "
-                "(lower is better)", "",
-                "| world | " + " | ".join(head) + " |", "|---" * (len(head) + 1) + "|"]
-        for w in worlds:
-            cells = []
-            for a in slams:
-                for m, _ in ps:
-                    k = main_key(m, w, surface)
-                    g = _gap(per_draw[k].get((w, "oracle")), per_draw[k].get((w, a)))
-                    if g is None:
-                        cells.append("–")
-                    else:
-                        gaps[(w, a, m)] = g
-                        cells.append(f"{g:+.3f}")
-            out.append(f"| {w} | " + " | ".join(cells) + " |")
-        out.append("")
-    out += ["## Overall: mean over worlds of the per-world means", "",
-            "Worlds where an algorithm has no successful draw are left out of its means "
-            f"and counted under 'worlds'. P and S: the main form ({surface_label(rows)}; the "
-            "study's cell rule in worlds marked (cell) above).", "",
-            "| algorithm | worlds | P | S | gap P | gap S | ADNN (cells) | ATE (m) | failed rows |",
-            "|---|---|---|---|---|---|---|---|---|"]
+    for w in worlds:
+        cells = []
+        for a in slams:
+            for m, _ in _PS:
+                k = main_key(m, w, surface)
+                g = _gap(per_draw[k].get((w, ceiling)), per_draw[k].get((w, a)))
+                if g is not None:
+                    gaps[(w, a, m)] = g
+                cells.append("–" if g is None else f"{g:+.3f}")
+        out.append(f"| {w} | " + " | ".join(cells) + " |")
+    return gaps, out + [""]
+
+
+def _overall_section(worlds, algos, rows, agg, stats, gaps, surface) -> list[str]:
+    """One line per algorithm: the mean over worlds of its per-world means and gaps."""
+    out = ["## Overall: mean over worlds of the per-world means", "",
+           "Worlds where an algorithm has no successful draw are left out of its means "
+           f"and counted under 'worlds'. P and S: the main form ({surface_label(rows)}; the "
+           "study's cell rule in worlds marked (cell) above).", "",
+           "| algorithm | worlds | P | S | gap P | gap S | ADNN (cells) | ATE (m) | failed rows |",
+           "|---|---|---|---|---|---|---|---|---|"]
     for a in algos:
         def avg(metric, fmt):
             keys = {w: main_key(metric, w, surface) for w in worlds}
             vals = [stats[keys[w]][(w, a)][0] for w in worlds if (w, a) in stats[keys[w]]]
             return (fmt.format(float(np.mean(vals))) if vals else "–"), len(vals)
+
+        def mean_gap(metric):
+            g = [gaps[(w, a, metric)] for w in worlds if (w, a, metric) in gaps]
+            return f"{np.mean(g):+.3f}" if g else "–"
         p, n_w = avg("precision", "{:.3f}")
         sens, _ = avg("sensitivity", "{:.3f}")
         adnn, _ = avg("adnn_cells", "{:.2f}")
         ate, _ = avg("ate_m", "{:.3f}")
-        gp = [gaps[(w, a, "precision")] for w in worlds if (w, a, "precision") in gaps]
-        gs = [gaps[(w, a, "sensitivity")] for w in worlds if (w, a, "sensitivity") in gaps]
-        gap_p = f"{np.mean(gp):+.3f}" if gp else "–"
-        gap_s = f"{np.mean(gs):+.3f}" if gs else "–"
-        n_fail = sum(failed.get((w, a), 0) for w in worlds)
-        n_all = sum(total.get((w, a), 0) for w in worlds)
-        out.append(f"| {_head(a)} | {n_w}/{len(worlds)} | {p} | {sens} | {gap_p} | {gap_s} | "
-                   f"{adnn} | {ate} | {n_fail}/{n_all} |")
-    out.append("")
-    return out
+        n_fail = sum(agg[(w, a)]["failed"] for w in worlds if (w, a) in agg)
+        n_all = sum(agg[(w, a)]["n"] for w in worlds if (w, a) in agg)
+        out.append(f"| {_head(a)} | {n_w}/{len(worlds)} | {p} | {sens} | {mean_gap('precision')} | "
+                   f"{mean_gap('sensitivity')} | {adnn} | {ate} | {n_fail}/{n_all} |")
+    return out + [""]
 
 
 def _study_sections(worlds, algos, agg, rows: list[dict]) -> list[str]:
-    """Our algorithms beside the study's algorithm of the same family, on the study worlds:
-    the study's cell rule (the form of its numbers) beside its numbers, our main (surface)
-    form after them."""
-    from bench.study import FAMILY, STUDY, STUDY_WORLDS
+    """Our algorithms beside the study's algorithm of the family each declares (bench.study.
+    family_of), on the study worlds: the study's cell rule (the form of its numbers) beside its
+    numbers, our main (surface) form after them."""
+    from bench.study import STUDY, STUDY_WORLDS, family_of
     shown = [w for w in STUDY_WORLDS if w in worlds]
-    ours = [a for a in FAMILY if a in algos]
+    family = {a: family_of(a) for a in algos}
+    ours = [a for a in algos if family[a]]
     if not shown or not ours:
         return []
     surface = surface_worlds(rows)
@@ -254,13 +281,13 @@ def _study_sections(worlds, algos, agg, rows: list[dict]) -> list[str]:
             ("ADNN (cells)", ("adnn_cells",), 2, (("", False),))):
         head = []
         for a in ours:
-            head += [f"{FAMILY[a]} (study)"] + [f"{a} ({f})" if f else a for f, _ in forms]
+            head += [f"{family[a]} (study)"] + [f"{a} ({f})" if f else a for f, _ in forms]
         out += [f"### {title}", "", "| world | " + " | ".join(head) + " |",
                 "|---" * (len(head) + 1) + "|"]
         for w in shown:
             cells = []
             for a in ours:
-                theirs = STUDY[FAMILY[a]]
+                theirs = STUDY[family[a]]
                 cells.append(" / ".join(f"{theirs[m][w][0]:.{min(dec, 2)}f}" for m in metrics))
                 g = agg.get((w, a))
                 for _, main in forms:
@@ -282,7 +309,7 @@ def _cell(stat, decimals: int) -> str:
 
 
 def _head(algo: str) -> str:
-    return "oracle (ceiling)" if algo == "oracle" else algo
+    return f"{algo} (ceiling)" if is_ceiling(algo) else algo
 
 
 def _table(worlds, algos, agg, cols: list[Column], surface: set[str]) -> str:
@@ -349,7 +376,9 @@ def summary_markdown(rows: list[dict], run: dict | None = None,
     vers = (run or {}).get("versions")
     if vers:
         out.append("Versions: " + ", ".join(f"{k} {v}" for k, v in vers.items()) + ".")
-    ceiling = " The oracle maps with the true poses: the ceiling." if "oracle" in algos else ""
+    ceilings = [a for a in algos if is_ceiling(a)]
+    ceiling = (f" The {', '.join(ceilings)} map{'' if len(ceilings) > 1 else 's'} with the true "
+               "poses: the ceiling." if ceilings else "")
     outside = sorted({r["algo"] for r in rows if r.get("source") == "outside"})
     if outside:
         out.append(f"Scored from maps made elsewhere (`bench add`): {', '.join(outside)}.")

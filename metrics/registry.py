@@ -4,18 +4,25 @@ tables show them and how far `bench regress` lets their means worsen.
 score_map computes every metric of kind "map" (from a metrics.score.MapContext), the benchmark
 also those of kind "trajectory" (from a metrics.trajectory.TrajectoryContext); keys of kind
 "run" are written by the runner. summary.md, summary.csv and regress read `columns()`.
-The built-in metrics are registered in metrics/builtin.py.
+The built-in metrics are registered in metrics/builtin.py; third-party ones come from the
+`slam_bench.metrics` entry-point group (a Metric, or a module that calls `register` on import),
+loaded after the built-ins the first time the registry is read, or from `register` in the
+caller's own code.
 """
 from __future__ import annotations
 
 import re
 from dataclasses import dataclass
+from importlib.metadata import entry_points
 from typing import Any, Callable
 
-__all__ = ["KINDS", "Section", "Column", "Metric", "register", "unregister", "register_section",
-           "metrics", "sections", "columns", "compute", "compute_at_tolerance", "tolerances",
-           "tolerance_key"]
+from worlds.yamlio import InputError
 
+__all__ = ["KINDS", "ENTRY_POINT_GROUP", "Section", "Column", "Metric", "register", "unregister",
+           "register_section", "load_plugins", "metrics", "sections", "columns", "compute",
+           "compute_at_tolerance", "tolerances", "tolerance_key"]
+
+ENTRY_POINT_GROUP = "slam_bench.metrics"
 KINDS = ("map", "trajectory", "run")
 # keys more than one metric may report (the last one computed wins)
 _SHARED_KEYS = frozenset({"note"})
@@ -66,6 +73,7 @@ class Metric:
 
 _METRICS: dict[str, Metric] = {}
 _SECTIONS: dict[str, Section] = {}
+_plugins_loaded = False
 
 
 def tolerance_key(key: str, tolerance: int) -> str:
@@ -89,7 +97,7 @@ def _check(m: Metric) -> None:
     extra = set(m.per_tolerance) - set(m.keys)
     if extra:
         raise ValueError(f"metric {m.name!r}: per_tolerance keys {sorted(extra)} not in keys")
-    shown = {c.key for c in columns()}
+    shown = {c.key for c in _columns()}
     for c in m.columns:
         per_tol = re.fullmatch(r"(.+)_t[1-9][0-9]*", c.key)
         if c.key not in m.keys and not (per_tol and per_tol.group(1) in m.per_tolerance):
@@ -127,19 +135,51 @@ def register_section(section: Section) -> Section:
     return section
 
 
+def load_plugins() -> list[str]:
+    """Register every `slam_bench.metrics` entry point (a Metric, or a module whose import
+    registers its metrics and sections); their names. A plugin that fails to load or is
+    inconsistent with the metrics registered before it raises InputError naming it."""
+    global _plugins_loaded
+    _plugins_loaded = True   # first: a plugin reading the registry must not load them again
+    loaded = []
+    for ep in entry_points(group=ENTRY_POINT_GROUP):
+        try:
+            obj = ep.load()
+            if isinstance(obj, Metric) and obj.name not in _METRICS:
+                register(obj)
+        except Exception as err:
+            _plugins_loaded = False
+            raise InputError(f"metric plugin '{ep.name}' ({ep.value}) failed to load: {err}") from None
+        loaded.append(ep.name)
+    return loaded
+
+
+def _ensure_plugins() -> None:
+    if not _plugins_loaded:
+        load_plugins()
+
+
 def metrics(kind: str | None = None) -> list[Metric]:
-    """The registered metrics (of `kind`), in registration order."""
+    """The registered metrics (of `kind`), in registration order (the plugins' after the
+    built-ins)."""
+    _ensure_plugins()
     return [m for m in _METRICS.values() if kind is None or m.kind == kind]
 
 
 def sections() -> list[Section]:
     """The registered summary.md tables, in registration order."""
+    _ensure_plugins()
     return list(_SECTIONS.values())
+
+
+def _columns() -> list[Column]:
+    return [c for m in _METRICS.values() for c in m.columns]
 
 
 def columns() -> list[Column]:
     """Every shown key, in registration order: the columns of summary.csv."""
-    return [c for m in _METRICS.values() for c in m.columns]
+    _ensure_plugins()
+    return _columns()
 
 
 def tolerances() -> dict[str, tuple[str, float]]:

@@ -70,18 +70,27 @@ class ImuWindow:
 class Slam(ABC):
     """A 2D SLAM fed one scan at a time, from the log's initial pose (the algorithm contract).
 
-    A subclass sets `name` and `config_class` (a frozen dataclass, loaded from YAML), and may
-    set `needs_odometry` (the log must have wheel odometry), `uses_ground_truth` (update()
-    receives the true pose as `truth=`; only the oracle) and `warmup_scans` (how many scans the
-    benchmark's untimed warm-up run needs to reach every compiled kernel once). It is built as
-    `Cls(config, start, rng)`; `self.config` is what config.yaml records.
+    A subclass sets `name` and `config_class` (a frozen dataclass, loaded from YAML), and
+    describes itself by class attributes, each with a default a plugin may keep:
+    needs_odometry: the log must have wheel odometry;
+    uses_ground_truth: update() receives the true pose as `truth=` (the oracle): the benchmark
+        shows it as the ceiling, last, and reads the others' gap to it;
+    family: the reference study's algorithm it stands beside ("Gmapping", "Hector",
+        "Cartographer"; bench.study), None for none;
+    warmup_scans: how many scans the benchmark's untimed warm-up run needs to reach every
+        compiled kernel once;
+    compile_cost_s: its cold compile time, s (a rough figure: the benchmark sends the compile
+        jobs out heaviest first so the workers finish them together).
+    It is built as `Cls(config, start, rng)`; `self.config` is what config.yaml records.
     """
 
     name: ClassVar[str] = ""
     config_class: ClassVar[type]
     needs_odometry: ClassVar[bool] = False
     uses_ground_truth: ClassVar[bool] = False
+    family: ClassVar[str | None] = None
     warmup_scans: ClassVar[int] = 12
+    compile_cost_s: ClassVar[float] = 0.0
 
     def __init__(self, config, start: np.ndarray, rng: np.random.Generator):
         self.config = config
@@ -108,7 +117,8 @@ class Slam(ABC):
 
 
 def check_algorithm_class(cls: type, name: str = "") -> None:
-    """Raise TypeError unless `cls` implements the Slam contract (subclass, config dataclass)."""
+    """Raise TypeError unless `cls` implements the Slam contract (subclass, config dataclass,
+    the abstract methods) and its describing attributes have the types Slam documents."""
     label = name or getattr(cls, "__name__", repr(cls))
     if not (isinstance(cls, type) and issubclass(cls, Slam)):
         raise TypeError(f"algorithm '{label}' is not a subclass of slam.base.Slam")
@@ -117,6 +127,19 @@ def check_algorithm_class(cls: type, name: str = "") -> None:
     missing = sorted(getattr(cls, "__abstractmethods__", ()))
     if missing:
         raise TypeError(f"algorithm '{label}' does not implement {', '.join(missing)}")
+    for attr in ("needs_odometry", "uses_ground_truth"):
+        if not isinstance(getattr(cls, attr), bool):
+            raise TypeError(f"algorithm '{label}': {attr} must be True or False, "
+                            f"got {getattr(cls, attr)!r}")
+    if cls.family is not None and not (isinstance(cls.family, str) and cls.family):
+        raise TypeError(f"algorithm '{label}': family must be a name or None, got {cls.family!r}")
+    warmup = cls.warmup_scans
+    if isinstance(warmup, bool) or not isinstance(warmup, int) or warmup < 1:
+        raise TypeError(f"algorithm '{label}': warmup_scans must be an integer >= 1, got {warmup!r}")
+    cost = cls.compile_cost_s
+    if isinstance(cost, bool) or not isinstance(cost, (int, float)) or not 0 <= cost < float("inf"):
+        raise TypeError(f"algorithm '{label}': compile_cost_s must be a number of seconds >= 0, "
+                        f"got {cost!r}")
 
 
 @dataclass(frozen=True, eq=False)

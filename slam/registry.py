@@ -15,8 +15,8 @@ from worlds.paths import check_name
 from worlds.yamlio import InputError, from_dict, load_yaml, short
 from slam.base import check_algorithm_class
 
-__all__ = ["ENTRY_POINT_GROUP", "BUILTIN", "register", "algorithms", "names", "get", "ensure",
-           "load_config", "load_plugins"]
+__all__ = ["ENTRY_POINT_GROUP", "BUILTIN", "register", "algorithms", "names", "get", "find",
+           "ensure", "load_config", "load_plugins"]
 
 ENTRY_POINT_GROUP = "slam_bench.algorithms"
 # name -> "module:Class"; the benchmark's tables list them in this order
@@ -84,6 +84,12 @@ def get(name: str) -> type:
     if name not in known:
         raise InputError(f"unknown algorithm '{name}' (known: {', '.join(known)})")
     return known[name]
+
+
+def find(name: str) -> type | None:
+    """The class registered as `name`, or None (a map scored from elsewhere, an algorithm not
+    installed in this environment): for readers of stored rows, which may name either."""
+    return algorithms().get(name)
 
 
 def ensure(name: str, cls: type | None) -> None:

@@ -27,6 +27,8 @@ class GaussNewtonSlam(Slam):
     """Hector-style SLAM: scan-to-map Gauss-Newton on a multi-resolution occupancy map."""
 
     config_class = GnConfig
+    family = "Hector"
+    compile_cost_s = 5.0   # s, cold, alone (docs/benchmark.md#cost)
 
     def __init__(self, config: GnConfig, start: np.ndarray, rng: np.random.Generator):
         super().__init__(config, start, rng)

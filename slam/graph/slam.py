@@ -22,6 +22,8 @@ class GraphSlam(Slam):
     (deterministic: the rng is not used)."""
 
     config_class = GraphConfig
+    family = "Cartographer"
+    compile_cost_s = 15.0   # s, cold, alone (docs/benchmark.md#cost)
     # the loop-closure search starts once the first submap is finished (about 250 scans on
     # the shipped worlds' routes): the warm-up has to get there to compile its kernels
     warmup_scans = 300

@@ -27,6 +27,8 @@ class ParticleFilterSlam(Slam):
 
     config_class = PfConfig
     needs_odometry = True
+    family = "Gmapping"
+    compile_cost_s = 16.0   # s, cold, alone (docs/benchmark.md#cost)
 
     def __init__(self, config: PfConfig, start: np.ndarray, rng: np.random.Generator):
         super().__init__(config, start, rng)

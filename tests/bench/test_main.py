@@ -42,7 +42,8 @@ def test_run_report_and_refusal_to_overwrite(tiny, tmp_path, capsys):
     captured = capsys.readouterr()
     assert f"report: {out / 'summary.md'}" in captured.out
     md = (out / "summary.md").read_text()
-    assert "| world | fake_map | fake_raise |" in md and "| tiny | " in md
+    # the fakes map with the true poses (uses_ground_truth): ceilings, as the oracle
+    assert "| world | fake_map (ceiling) | fake_raise (ceiling) |" in md and "| tiny | " in md
     # the main table is the surface form, the study's cell rule beside it; both in the CSV
     from bench import read_rows
     from metrics.surface import DEFAULT_TAU_M

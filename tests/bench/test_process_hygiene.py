@@ -141,7 +141,7 @@ def test_a_second_run_on_a_busy_folder_refuses_at_once(tiny, tmp_path, capsys):
         proc.kill()
         proc.wait()
     # the lock dies with its holder (and its workers, which share the open lock file)
-    from bench.runner import run_lock
+    from bench.rundir import run_lock
     from worlds.yamlio import InputError
 
     def free():
@@ -159,7 +159,7 @@ def test_arrays_are_written_atomically_under_unique_names(tmp_path, monkeypatch)
     import numpy as np
 
     import worlds.yamlio as yamlio
-    from bench import runner
+    from bench import rundir
 
     calls = []
     real_mkstemp = yamlio.tempfile.mkstemp
@@ -170,14 +170,14 @@ def test_arrays_are_written_atomically_under_unique_names(tmp_path, monkeypatch)
         return fd, name
     monkeypatch.setattr(yamlio.tempfile, "mkstemp", spy)
     log = type("Log", (), {"has_ground_truth": True, "gt_t": np.arange(3.0), "gt_pose": np.zeros((3, 3))})()
-    runner._save_gt(tmp_path, "w", 0, log)
-    runner._save_gt(tmp_path, "w", 1, log)
+    rundir.save_gt(tmp_path, "w", 0, log)
+    rundir.save_gt(tmp_path, "w", 1, log)
     assert len(calls) == 2 and len(set(calls)) == 2
     assert not [p for p in tmp_path.rglob("*") if "tmp" in p.name]
 
     def interrupted(path, data):
         raise KeyboardInterrupt
-    monkeypatch.setattr(runner, "atomic_write_bytes", interrupted)
+    monkeypatch.setattr(rundir, "atomic_write_bytes", interrupted)
     with pytest.raises(KeyboardInterrupt):
-        runner._save_gt(tmp_path, "w", 2, log)
+        rundir.save_gt(tmp_path, "w", 2, log)
     assert not (tmp_path / "maps" / "w" / "gt_s2.npz").exists()

@@ -12,7 +12,7 @@ import pytest
 
 from bench import RunSpec, comparable, read_rows, run_benchmark
 from bench import cache
-from bench.runner import read_truth
+from bench.rundir import read_truth
 from worlds.grid import Grid
 from tests.bench import fakes
 from worlds.yamlio import InputError
@@ -186,6 +186,20 @@ def test_each_algorithm_is_compiled_once_before_any_task(tiny, tmp_path, monkeyp
     kinds = [k for k, _ in calls]
     assert kinds == ["compile"] * 2 + ["task"] * 4
     assert sorted(a for k, a in calls if k == "compile") == ["fake_diverge", "fake_map"]
+
+
+def test_compile_jobs_go_out_costliest_first_by_the_classes_estimate(monkeypatch):
+    from bench.runner import RunPlan
+    from slam import registry
+    algos = (*registry.BUILTIN, "fake_map", "fake_raise")
+    monkeypatch.setattr(fakes.FakeRaise, "compile_cost_s", 20.0)   # a plugin's own estimate
+    plan = RunPlan(RunSpec(worlds=("w",), algos=algos), Path("."), {}, {}, {}, {},
+                   {a: registry.get(a) for a in algos}, {})
+    order = plan.compile_order()
+    assert order[0] == "fake_raise" and order[-1] == "fake_map"   # no estimate: 0 s, last
+    shipped = [a for a in order if a in registry.BUILTIN]
+    costs = [registry.get(a).compile_cost_s for a in shipped]
+    assert costs == sorted(costs, reverse=True) and len(set(costs)) == len(costs) > 1
 
 
 STUCK_WORLD = REPO / "tests" / "data" / "stuck_world.yaml"

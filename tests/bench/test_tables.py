@@ -50,6 +50,8 @@ def test_aggregate_counts_failures_and_uses_ok_rows():
 
 def test_algo_order_puts_oracle_last():
     assert algo_order(["oracle", "graph", "zz", "pf", "gn"]) == ["pf", "gn", "graph", "zz", "oracle"]
+    # a plugin mapping with the true poses (the fakes: uses_ground_truth) is a ceiling too
+    assert algo_order(["fake_map", "zz", "oracle", "pf"]) == ["pf", "zz", "oracle", "fake_map"]
 
 
 def test_markdown_has_the_study_layout():

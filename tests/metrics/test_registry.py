@@ -91,3 +91,34 @@ def test_per_tolerance_columns_must_name_a_per_tolerance_key():
         registry.unregister("toy")
     with pytest.raises(ValueError, match="already registered"):
         registry.register_section(Section("adnn", "again"))
+
+
+def test_entry_point_metric_plugins_load_after_the_builtins(monkeypatch):
+    """A `slam_bench.metrics` entry point is registered the first time the registry is read,
+    after the built-ins, and its key reaches score_map; a broken one is a one-line InputError."""
+    import importlib.metadata as md
+    from worlds.yamlio import InputError
+    good = md.EntryPoint("plugin_points", "tests.metrics.plugin_metric:PLUGIN_POINTS",
+                         registry.ENTRY_POINT_GROUP)
+    groups = []
+
+    def entry_points(group=None):
+        groups.append(group)
+        return [good]
+    monkeypatch.setattr(registry, "entry_points", entry_points)
+    monkeypatch.setattr(registry, "_plugins_loaded", False)
+    try:
+        assert [c.key for c in registry.columns()][-1] == "plugin_points"
+        assert groups == ["slam_bench.metrics"]
+        truth = draw(ROOM)
+        assert score_map(truth, truth)["plugin_points"] == len(truth.occupied().nonzero()[0])
+        assert registry.load_plugins() == ["plugin_points"]   # again: already registered
+    finally:
+        registry.unregister("plugin_points")
+    bad = md.EntryPoint("broken", "tests.metrics.no_such_module", registry.ENTRY_POINT_GROUP)
+    monkeypatch.setattr(registry, "entry_points", lambda group=None: [bad])
+    monkeypatch.setattr(registry, "_plugins_loaded", False)
+    with pytest.raises(InputError, match="metric plugin 'broken'.*failed to load"):
+        registry.columns()
+    with pytest.raises(InputError, match="metric plugin 'broken'"):
+        registry.metrics()   # not taken as loaded: every read names it
