@@ -6,7 +6,7 @@ fields (`TIMING_FIELDS`, see `comparable`). Every append rewrites the whole file
 temporary file and os.replace: a Ctrl-C or a killed process leaves the previous complete file.
 
 Reading checks what later steps trust (`read_rows`, `read_run`): a UTF-8 JSON object of at
-most MAX_JSON_BYTES nested at most sim.log.MAX_JSON_DEPTH deep; rows that are mappings with
+most MAX_JSON_BYTES nested at most MAX_JSON_DEPTH (worlds.jsonio) deep; rows that are mappings with
 the name rule (worlds.paths) on the fields that become parts of paths, whole numbers where
 file names and seeds are made of them, numbers (or null) where the tables average them, and
 a `map_file` that stays inside the run folder. Anything else is one InputError naming the
@@ -14,12 +14,10 @@ file and the field (`rows[3].repeat`).
 """
 from __future__ import annotations
 
-import json
-import math
 from pathlib import Path
 from typing import Iterable
 
-from worlds.jsonio import loads as parse_json
+from worlds.jsonio import dumps, jsonable, read_json as _read_json
 from worlds.paths import check_name, is_name
 from worlds.yamlio import InputError, atomic_write_text, short
 
@@ -54,19 +52,6 @@ def row_key(row: dict) -> tuple[str, str, int]:
     return (row["world"], row["algo"], int(row["repeat"]))
 
 
-def jsonable(value):
-    """Plain JSON data: numpy scalars -> Python, NaN/inf -> None (JSON has no NaN)."""
-    if isinstance(value, dict):
-        return {str(k): jsonable(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [jsonable(v) for v in value]
-    if hasattr(value, "item") and callable(value.item) and getattr(value, "ndim", 0) == 0:
-        value = value.item()
-    if isinstance(value, float) and not math.isfinite(value):
-        return None
-    return value
-
-
 def comparable(rows: Iterable[dict]) -> list[dict]:
     """Rows without timing fields (also inside `slam_stats`), sorted: for run-vs-resume checks."""
     out = []
@@ -80,30 +65,10 @@ def comparable(rows: Iterable[dict]) -> list[dict]:
 
 
 def read_json(path: str | Path, what: str) -> dict:
-    """The JSON object in file `path`; InputError naming the file when it is missing, larger
-    than MAX_JSON_BYTES, not UTF-8 text (a binary file), not valid JSON, nested too deeply
-    (sim.log.parse_json) or not an object. what: the kind of file, for the message."""
-    p = Path(path)
-    try:
-        size = p.stat().st_size
-        if size > MAX_JSON_BYTES:
-            raise InputError(f"{p}: {size:,} bytes, more than the {MAX_JSON_BYTES:,} a {what} "
-                             "may have")
-        raw = p.read_bytes()
-    except FileNotFoundError:
-        raise InputError(f"{p}: file not found") from None
-    except OSError as err:
-        raise InputError(f"{p}: cannot read: {err.strerror}") from None
-    try:
-        text = raw.decode("utf-8")
-    except UnicodeDecodeError as err:
-        raise InputError(f"{p}: not a text file (byte {err.start} is not UTF-8): not a "
-                         f"{what}") from None
-    data = parse_json(text, str(p))
-    if not isinstance(data, dict):
-        raise InputError(f"{p}: not a {what} (expected a JSON object, got "
-                         f"{type(data).__name__})")
-    return data
+    """The JSON object in file `path`, at most MAX_JSON_BYTES (worlds.jsonio.read_json: InputError
+    naming the file when it is missing, too large, not UTF-8, not valid JSON, nested too deeply
+    or not an object). what: the kind of file, for the message."""
+    return _read_json(path, what, MAX_JSON_BYTES)
 
 
 def read_rows(path: str | Path) -> list[dict]:
@@ -244,6 +209,6 @@ class ResultStore:
 
     def save(self) -> None:
         rows = self.sorted_rows()
-        text = json.dumps({"format": FORMAT, "rows": rows}, indent=1, sort_keys=False)
+        text = dumps({"format": FORMAT, "rows": rows}, indent=1)
         atomic_write_text(self.path, text + "\n", root=self.dir)
 
