@@ -30,6 +30,10 @@ def build_parser() -> argparse.ArgumentParser:
     rep = sub.add_parser("report", help="rebuild summary.md/.csv and figures from results.json")
     rep.add_argument("dir")
     rep.add_argument("--no-figures", action="store_true")
+    rep.add_argument("--update", action="append", metavar="PAGE",
+                     help="refill the tables of PAGE marked as this run's (repeatable; run from "
+                          "the repository's root: the summary is kept as docs/runs/NAME.md)")
+    rep.add_argument("--run-name", help="NAME in the pages' markers (default: DIR's folder name)")
 
     _add_add_command(sub)
 
@@ -136,6 +140,11 @@ def cmd_report(args) -> int:
     from bench.report import write_report
     md = write_report(args.dir, figures=not args.no_figures)
     print(f"report: {md}")
+    if args.update:
+        from bench.doctables import update_docs
+        name = args.run_name or Path(args.dir).resolve().name
+        for line in update_docs(Path(md), args.update, name, Path.cwd()):
+            print(line)
     return 0
 
 

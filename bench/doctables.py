@@ -19,7 +19,8 @@ from pathlib import Path
 
 from worlds.yamlio import InputError, atomic_write_text
 
-__all__ = ["RUNS_DIR", "table_under", "update_page", "stale_blocks", "store_summary"]
+__all__ = ["RUNS_DIR", "table_under", "update_page", "stale_blocks", "store_summary",
+           "update_docs"]
 
 RUNS_DIR = Path("docs") / "runs"
 _BLOCK = re.compile(r"(<!-- table: *(?P<run>[\w.+-]+) *\| *(?P<heading>[^>]*?) *-->\n)"
@@ -80,3 +81,25 @@ def store_summary(summary_path: Path, run_name: str, root: Path) -> Path:
     target = path_inside(root / RUNS_DIR, f"{run_name}.md")
     atomic_write_text(target, summary_path.read_text(encoding="utf-8"), root=root / RUNS_DIR)
     return target
+
+
+def update_docs(summary_path: Path, pages: list[str], run_name: str, root: Path) -> list[str]:
+    """Store the run's summary as root/docs/runs/<run_name>.md and refill every block naming
+    it in `pages`; one line per page saying how many tables it took. InputError for a page
+    without such a block (a typo in --run-name would otherwise change nothing silently)."""
+    store_summary(summary_path, run_name, root)
+    summary = summary_path.read_text(encoding="utf-8")
+    done = []
+    for page in pages:
+        p = Path(page)
+        try:
+            text = p.read_text(encoding="utf-8")
+        except OSError as err:
+            raise InputError(f"{p}: cannot read: {err.strerror}") from None
+        new, count = update_page(text, run_name, summary)
+        if count == 0:
+            raise InputError(f"{p}: no table marked '<!-- table: {run_name} | ... -->'")
+        if new != text:
+            atomic_write_text(p, new)
+        done.append(f"{p}: {count} table{'s' if count > 1 else ''} from {run_name}")
+    return done

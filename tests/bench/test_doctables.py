@@ -63,3 +63,19 @@ def test_committed_tables_are_what_their_run_summaries_give(page):
     stale = stale_blocks(page.read_text(encoding="utf-8"), ROOT / RUNS_DIR)
     assert not stale, (f"{page.relative_to(ROOT)}: tables that differ from their run's summary: "
                        f"{stale} (python -m bench report RUN --update {page.relative_to(ROOT)})")
+
+
+def test_update_docs_stores_the_summary_and_refills_the_pages(tmp_path):
+    from bench.doctables import update_docs
+    summary = tmp_path / "run" / "summary.md"
+    summary.parent.mkdir()
+    summary.write_text(SUMMARY)
+    page = tmp_path / "page.md"
+    page.write_text(PAGE)
+    assert update_docs(summary, [str(page)], "demo", tmp_path) == [f"{page}: 1 table from demo"]
+    assert (tmp_path / RUNS_DIR / "demo.md").read_text() == SUMMARY
+    assert stale_blocks(page.read_text(), tmp_path / RUNS_DIR) == ["other | Table 1"]
+    with pytest.raises(InputError, match="no table marked '<!-- table: typo"):
+        update_docs(summary, [str(page)], "typo", tmp_path)
+    with pytest.raises(InputError, match="--run-name: name: '../x'"):
+        update_docs(summary, [str(page)], "../x", tmp_path)
