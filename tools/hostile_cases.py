@@ -15,7 +15,6 @@ import io
 import json
 import os
 import shutil
-import subprocess
 import sys
 import tempfile
 import time
@@ -23,6 +22,8 @@ import zipfile
 from pathlib import Path
 
 import numpy as np
+
+from sim.logs.tum import write_tum
 
 
 MEMORY_LIMIT_MB = 1024
@@ -336,10 +337,8 @@ def main(argv: list[str] | None = None) -> int:
     log = sorted(cache.glob("room-s0-*.npz"))[0]
     shutil.copy(log, base / "room_s0.npz")
     log = base / "room_s0.npz"
-    (run_dir / "oracle.tum").write_text("".join(
-        f"{t:.6f} {x:.6f} {y:.6f} 0 0 0 {np.sin(a / 2):.9f} {np.cos(a / 2):.9f}\n"
-        for t, (x, y, a) in zip(*(lambda z: (z["times"], z["poses"]))(
-            np.load(next((run_dir / "maps" / "room" / "oracle").glob("*.npz")))))))
+    with np.load(next((run_dir / "maps" / "room" / "oracle").glob("*.npz"))) as z:
+        write_tum(run_dir / "oracle.tum", z["times"], z["poses"])
     failed = 0
     print(f"{'':4} {'exit':>4} {'MB':>6} {'s':>6}  case: stderr")
     for i, (label, setup) in enumerate(cases(base, run_dir, log)):
@@ -356,12 +355,9 @@ def main(argv: list[str] | None = None) -> int:
             problems.append(f"{len(lines)} lines on stderr")
         if peak >= MEMORY_LIMIT_MB:
             problems.append(f"peak {peak:.0f} MB")
+        # the output folder (or, for a command that writes in place, its case) is left out
         after = state(base, case if out_dir is None else out_dir)
-        written = sorted(k for k in set(after) | set(before)
-                         if before.get(k) != after.get(k) and not k.startswith(f"case{i:02d}/run")
-                         ) if out_dir is not None else []
-        if out_dir is None:   # the command writes in place or nowhere: nothing outside its case
-            written = sorted(k for k in set(after) | set(before) if before.get(k) != after.get(k))
+        written = sorted(k for k in set(after) | set(before) if before.get(k) != after.get(k))
         if written:
             problems.append(f"wrote outside: {written[:3]}")
         if state(cache) != cached:
