@@ -1,7 +1,7 @@
 """sim: a pymunk TurtleBot3-Burger-like robot with lidar, IMU and wheel odometry that
 drives a world's route and records a SensorLog (.npz).
 
-    log = record(world, seed=0, noise="realistic", config=None)
+    log = record(world, seed=0, noise="realistic", config=None, lidar="utm-30lx")
     write_log(log, "log.npz"); log = read_log("log.npz")
 
 The sensor log and the outside formats (sim.logs) load with the package; the simulator's names
@@ -15,12 +15,13 @@ from sim.logs import FORMAT_VERSION, SensorLog, read_log, write_log
 
 __all__ = ["record", "recording_problem", "MIN_COVERAGE", "RecordConfig", "load_record_config",
            "SIM_VERSION", "NoiseProfile", "load_profile", "profile_names", "SensorLog", "read_log",
-           "write_log", "FORMAT_VERSION"]
+           "write_log", "FORMAT_VERSION", "LidarConfig", "load_lidar", "lidar_names"]
 
 # the simulator's public names -> the module that defines each, imported when first asked for
 _LAZY = {name: "sim.record" for name in ("record", "recording_problem", "MIN_COVERAGE",
                                          "RecordConfig", "load_record_config", "SIM_VERSION")}
 _LAZY.update({name: "sim.noise" for name in ("NoiseProfile", "load_profile", "profile_names")})
+_LAZY.update({name: "sim.lidar" for name in ("LidarConfig", "load_lidar", "lidar_names")})
 
 
 def __getattr__(name: str):

@@ -1,4 +1,4 @@
-"""Command line: python -m sim record | show | import | export  (see --help of each).
+"""Command line: python -m sim record | show | lidars | import | export  (see --help of each).
 
 Exit codes: 0 done; 2 bad input (one line on stderr); 3 (`record`) the log was written but
 cannot be trusted: the robot got stuck, the time limit ran out, or the log saw too little of
@@ -28,6 +28,9 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--noise", default="realistic", help="profile name (ideal, gazebo, realistic) "
                    "or YAML file (default: realistic)")
     r.add_argument("--config", default=None, help="RecordConfig YAML (rates, lidar, controller, robot)")
+    r.add_argument("--lidar", default=None, metavar="NAME|FILE",
+                   help="lidar from the catalogue (python -m sim lidars) or a lidar YAML file "
+                        "(default: the config's, the LDS-01)")
     r.add_argument("--min-coverage", type=share_0_1, default=None, metavar="SHARE",
                    help="warn and exit 3 when the log's lidar saw less than this share of the "
                         "true wall cells (default 0.95)")
@@ -46,6 +49,7 @@ def build_parser() -> argparse.ArgumentParser:
                         "first by name, with a warning when there are several)")
     i.add_argument("--odom-topic", help="bags: nav_msgs/Odometry topic (default /odom, else /tf)")
     i.add_argument("--imu-topic", help="bags: sensor_msgs/Imu topic (default /imu)")
+    sub.add_parser("lidars", help="list the lidar catalogue")
     e = sub.add_parser("export", help="write a sensor log as a ROS bag (needs pip install .[ros])")
     e.add_argument("log", help="sensor log (.npz)")
     e.add_argument("--format", required=True, choices=["ros1", "ros2", "mcap"])
@@ -78,7 +82,7 @@ def cmd_record(args) -> int:
     min_cover = MIN_COVERAGE if args.min_coverage is None else args.min_coverage
     check_out_file(args.out)
     world = _load_world(args.world)
-    log = record(world, seed=args.seed, noise=args.noise, config=args.config)
+    log = record(world, seed=args.seed, noise=args.noise, config=args.config, lidar=args.lidar)
     write_log(log, args.out)
     d = log.meta["odometry_drift"]
     print(f"{args.out}: {log.n_scans} scans, {log.gt_t[-1]:.1f} s, {d['distance']:.1f} m driven, "
@@ -88,6 +92,16 @@ def cmd_record(args) -> int:
     if problem:
         print(f"warning: {args.out}: {problem}", file=sys.stderr)
         return EXIT_UNTRUSTED_LOG
+    return 0
+
+
+def cmd_lidars(args) -> int:
+    from sim.lidar import lidar_names, load_lidar
+    for name in lidar_names():
+        c = load_lidar(name)
+        fov = c.field_of_view * 180.0 / 3.141592653589793
+        print(f"{name:12s} {c.model:24s} {fov:6.1f} deg  {c.beams:5d} beams  {c.rate:5.1f} Hz  "
+              f"{c.range_min:.2f}-{c.range_max:g} m")
     return 0
 
 
@@ -150,7 +164,8 @@ def _write_true_map(log, out: Path, log_path: str) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    commands = {"record": cmd_record, "show": cmd_show, "import": cmd_import, "export": cmd_export}
+    commands = {"record": cmd_record, "show": cmd_show, "import": cmd_import, "export": cmd_export,
+                "lidars": cmd_lidars}
     return run_cli(build_parser, lambda args: commands[args.command](args), argv)
 
 

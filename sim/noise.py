@@ -20,6 +20,8 @@ from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
 
+
+from sim.logs.range_model import accuracy_bands, check_bands, range_sigma
 from worlds.yamlio import InputError, from_dict, load_yaml, to_dict
 
 __all__ = ["LidarNoise", "WheelNoise", "ImuAxisNoise", "ImuNoise", "NoiseProfile",
@@ -28,9 +30,14 @@ __all__ = ["LidarNoise", "WheelNoise", "ImuAxisNoise", "ImuNoise", "NoiseProfile
 
 @dataclass(frozen=True)
 class LidarNoise:
-    """Range noise of the LDS-01: Gaussian, sigma = near_accuracy / accuracy_sigmas below
-    `split` m and far_accuracy_ratio * range / accuracy_sigmas from `split` on, plus
-    `stddev` (m) at every range; `drop_prob` of the beams return nothing (inf)."""
+    """Range noise of a lidar: Gaussian with sigma = sqrt(stddev^2 + (accuracy(r) /
+    accuracy_sigmas)^2), and `drop_prob` of the beams return nothing (inf).
+
+    accuracy(r), the datasheet's +- accuracy at range r (m), is given by range band:
+    `bands` [[up_to, accuracy, ratio], ...] in increasing up_to, accuracy(r) = accuracy +
+    ratio * r in the first band with r < up_to (the last band also covers every range past
+    it). Without bands: near_accuracy below `split` m and far_accuracy_ratio * r from `split`
+    on (the LDS-01's two bands, the form the shipped profiles were first written in)."""
 
     stddev: float = 0.0              # m, range-independent (Gazebo's ray sensor noise)
     near_accuracy: float = 0.0       # m, +- accuracy below split
@@ -38,6 +45,7 @@ class LidarNoise:
     split: float = 0.5               # m
     accuracy_sigmas: float = 2.0     # the +- accuracy is this many standard deviations
     drop_prob: float = 0.0           # probability a beam returns nothing
+    bands: tuple[tuple[float, float, float], ...] = ()  # [up_to m, accuracy m, ratio] by range
 
     def __post_init__(self):
         _check_nonneg(self, ("stddev", "near_accuracy", "far_accuracy_ratio", "split"))
@@ -45,6 +53,15 @@ class LidarNoise:
             raise ValueError("accuracy_sigmas must be > 0")
         if not 0.0 <= self.drop_prob < 1.0:
             raise ValueError(f"drop_prob must be in [0, 1), got {self.drop_prob}")
+        object.__setattr__(self, "bands", check_bands(self.bands))
+
+    def accuracy_bands(self) -> tuple[tuple[float, float, float], ...]:
+        """The bands (up_to, accuracy, ratio) this model reads accuracy(r) from."""
+        return accuracy_bands(self.bands, self.near_accuracy, self.far_accuracy_ratio, self.split)
+
+    def sigma(self, r) -> np.ndarray:
+        """Range sigma (m) at range(s) r (m)."""
+        return range_sigma(r, self.stddev, self.accuracy_bands(), self.accuracy_sigmas)
 
 
 @dataclass(frozen=True)
@@ -92,11 +109,13 @@ class ImuNoise:
 
 @dataclass(frozen=True)
 class NoiseProfile:
-    """All noise of one recording. `name` identifies the profile in logs."""
+    """All noise of one recording. `name` identifies the profile in logs. `lidar` None (the
+    realistic profile) takes the range noise from the lidar's datasheet (LidarConfig.noise,
+    sim/lidars/); a profile that sets it applies it to any lidar."""
 
     name: str = "custom"
     description: str = ""
-    lidar: LidarNoise = field(default_factory=LidarNoise)
+    lidar: LidarNoise | None = None   # None: the recording lidar's own datasheet noise
     wheels: WheelNoise = field(default_factory=WheelNoise)
     imu: ImuNoise = field(default_factory=ImuNoise)
 

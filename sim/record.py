@@ -18,6 +18,7 @@ turns those into the reason a log cannot be trusted, or None.
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -28,7 +29,7 @@ import numpy as np
 from sim._coverage import mark_beam_ends_inplace
 from sim.controller import ControllerConfig, PurePursuit
 from sim.imu import simulate_imu
-from sim.lidar import LidarConfig, apply_range_noise, beam_poses, cast_scans
+from sim.lidar import LidarConfig, apply_range_noise, beam_poses, cast_scans, load_lidar
 from sim.logs import SensorLog
 from sim.noise import NoiseProfile, load_profile
 from sim.odometry import encoder_ticks, integrate_ticks, odometry_drift, wheel_angles_at
@@ -202,14 +203,19 @@ def recording_problem(meta: Mapping, min_coverage: float = MIN_COVERAGE) -> str 
 
 
 def record(world: World, seed: int = 0, noise: "str | Path | NoiseProfile" = "realistic",
-           config: "RecordConfig | Mapping | str | Path | None" = None) -> SensorLog:
+           config: "RecordConfig | Mapping | str | Path | None" = None,
+           lidar: "str | Path | LidarConfig | None" = None) -> SensorLog:
     """Drive the world's route (worlds.route_for) and record every sensor.
 
     noise: profile name, YAML path or NoiseProfile; config: RecordConfig, mapping, YAML
-    path or None. Same world, seed, profile and config: identical SensorLog arrays.
+    path or None; lidar: a catalogue name, a lidar YAML file or a LidarConfig in place of
+    the config's lidar (mounted where the config's lidar is). Same world, seed, profile,
+    config and lidar: identical SensorLog arrays.
     """
     profile = load_profile(noise)
     cfg = load_record_config(config)
+    if lidar is not None:
+        cfg = dataclasses.replace(cfg, lidar=load_lidar(lidar, mounted_as=cfg.lidar))
     route = _route(world)
     rng = np.random.default_rng(seed)
     drive_rng, lidar_rng, imu_rng = rng.spawn(3)
@@ -226,7 +232,8 @@ def record(world: World, seed: int = 0, noise: "str | Path | NoiseProfile" = "re
     scan_t = np.arange(n_scans) / lc.rate
     origins, angles = beam_poses(scan_t, gt_t, gt, lc)
     true_ranges = cast_scans(world.segments, origins, angles, np.inf).reshape(n_scans, lc.beams)
-    scan_ranges = apply_range_noise(true_ranges, profile.lidar, lc, lidar_rng)
+    lidar_noise = profile.lidar if profile.lidar is not None else lc.noise
+    scan_ranges = apply_range_noise(true_ranges, lidar_noise, lc, lidar_rng)
     coverage = _seen_share(world, origins, angles, true_ranges, lc) if n_scans else 0.0
 
     # wheel odometry from encoder ticks
@@ -247,7 +254,7 @@ def record(world: World, seed: int = 0, noise: "str | Path | NoiseProfile" = "re
         "world": world.name,
         "world_source": str(world.source) if world.source else "",
         "seed": int(seed),
-        "noise": profile.to_dict(),
+        "noise": {**profile.to_dict(), "lidar": to_dict(lidar_noise)},
         "lidar": lc.meta(),
         "robot": to_dict(rc),
         "odometry": {"rate": cfg.odom_rate, "encoder_ticks": rc.encoder_ticks},

@@ -44,10 +44,17 @@ _DEGENERATE = 1e-9   # cells^2: a window's spread below this has no direction
 
 
 @njit(cache=True, nogil=True)
-def _sigma(r, stddev, near, ratio, split, nsig, floor):
-    acc = near if r < split else ratio * r
-    s = math.sqrt(stddev * stddev + (acc / nsig) * (acc / nsig))
-    return s if s > floor else floor
+def _sigma(r, noise):
+    """Range sigma at r of the model `noise` (slam.range_noise.RangeNoise.as_array)."""
+    k = int(noise[3])
+    b = 4 + 3 * (k - 1)                # the last band, also past every band
+    for j in range(k - 1):
+        if r < noise[4 + 3 * j]:
+            b = 4 + 3 * j
+            break
+    acc = noise[b + 1] + noise[b + 2] * r
+    s = math.sqrt(noise[0] * noise[0] + (acc / noise[1]) * (acc / noise[1]))
+    return s if s > noise[2] else noise[2]
 
 
 @njit(cache=True, nogil=True)
@@ -55,7 +62,7 @@ def hit_sigmas(ranges, starts, neighbours, jump, noise):
     """(N,) range sigma (m) of every hit. ranges: (N,) m, hits of all scans in beam order;
     starts: (S + 1,) index of each scan's first hit; neighbours: hits on each side whose mean
     range the noise model is read at (those within `jump` of the hit's range, as a fraction);
-    noise: (6,) stddev, near_accuracy, far_accuracy_ratio, split, accuracy_sigmas, floor."""
+    noise: the model as RangeNoise.as_array gives it."""
     n = ranges.shape[0]
     out = np.empty(n)
     for s in range(starts.shape[0] - 1):
@@ -68,7 +75,7 @@ def hit_sigmas(ranges, starts, neighbours, jump, noise):
                     total += ranges[j]
                     count += 1
             rbar = total / count if count else r
-            out[i] = _sigma(rbar, noise[0], noise[1], noise[2], noise[3], noise[4], noise[5])
+            out[i] = _sigma(rbar, noise)
     return out
 
 
@@ -310,15 +317,17 @@ def mark_surface(px, py, w, rows, cols, min_hits, share):
 
 def hit_sigmas_ref(ranges, starts, neighbours, jump, noise):
     """Reference of hit_sigmas."""
-    stddev, near, ratio, split, nsig, floor = noise
+    stddev, nsig, floor, k = noise[:4]
+    bands = np.asarray(noise[4:4 + 3 * int(k)]).reshape(-1, 3)
     out = np.empty(len(ranges))
     for lo, hi in zip(starts[:-1], starts[1:]):
         for i in range(lo, hi):
             idx = np.arange(max(lo, i - neighbours), min(hi, i + neighbours + 1))
             idx = idx[(idx != i) & (np.abs(ranges[idx] - ranges[i]) <= jump * ranges[i])]
             rbar = ranges[idx].mean() if len(idx) else ranges[i]
-            acc = near if rbar < split else ratio * rbar
-            out[i] = max(np.hypot(stddev, acc / nsig), floor)
+            below = np.flatnonzero(rbar < bands[:-1, 0])
+            up_to, a, ratio = bands[below[0] if len(below) else -1]
+            out[i] = max(np.hypot(stddev, (a + ratio * rbar) / nsig), floor)
     return out
 
 

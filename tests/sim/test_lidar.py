@@ -61,7 +61,7 @@ def test_ideal_noise_only_quantises():
 
 def test_realistic_noise_statistics():
     cfg = LidarConfig()
-    noise = load_profile("realistic").lidar
+    noise = cfg.noise               # the realistic profile takes the LDS-01's datasheet
     true = np.concatenate([np.full(40000, 0.3), np.full(40000, 2.0)])
     got = apply_range_noise(true, noise, cfg, np.random.default_rng(1))
     near, far = got[:40000], got[40000:]

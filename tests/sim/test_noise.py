@@ -1,7 +1,7 @@
 import numpy as np
 import pytest
 
-from sim.noise import NoiseProfile, load_profile, profile_names
+from sim.noise import LidarNoise, NoiseProfile, load_profile, profile_names
 from worlds.yamlio import InputError
 
 
@@ -22,11 +22,35 @@ def test_gazebo_numbers_from_the_xacro():
 
 def test_realistic_numbers_from_the_datasheets():
     r = load_profile("realistic")
-    assert r.lidar.near_accuracy == 0.015 and r.lidar.far_accuracy_ratio == 0.05
+    assert r.lidar is None          # the recording lidar's own datasheet
     # MPU-9250: 0.01 deg/s/sqrt(Hz) and 300 micro-g/sqrt(Hz); sigma = density * sqrt(rate)
     assert r.imu.gyro.sigma(100.0) == pytest.approx(np.radians(0.01) * 10, rel=1e-3)
     assert r.imu.accel.sigma(100.0) == pytest.approx(300e-6 * 9.80665 * 10, rel=1e-3)
-    assert 0 < r.lidar.drop_prob <= 0.05
+
+
+def test_band_model_reads_each_band_and_the_last_past_them():
+    n = LidarNoise(bands=((0.5, 0.015, 0.0), (3.5, 0.0, 0.05)))
+    np.testing.assert_allclose(n.sigma([0.2, 0.49, 0.5, 2.0, 5.0]),
+                               [0.0075, 0.0075, 0.0125, 0.05, 0.125])
+    # the near/far form is the same two bands
+    old = LidarNoise(near_accuracy=0.015, far_accuracy_ratio=0.05, split=0.5)
+    r = np.linspace(0.0, 10.0, 1001)
+    assert np.array_equal(old.sigma(r), n.sigma(r))
+    utm = LidarNoise(stddev=0.001, bands=((10.0, 0.03, 0.0), (30.0, 0.05, 0.0)))
+    np.testing.assert_allclose(utm.sigma([1.0, 20.0]), np.hypot(0.001, [0.015, 0.025]))
+
+
+@pytest.mark.parametrize("bands, match", [
+    ([[1.0, 0.01, 0.0], [0.5, 0.02, 0.0]], r"bands\[1\]: up_to 0.5 is not above"),
+    ([[1.0, -0.01, 0.0]], r"bands\[0\]: expected \[up_to, accuracy, ratio\]"),
+    ([[1.0, 0.01]], r"bands\[0\]: expected 3 values"),
+    ([[float(i), 0.01, 0.0] for i in range(1, 11)], r"at most 8 range bands"),
+])
+def test_bad_bands_are_one_line_errors(tmp_path, bands, match):
+    p = tmp_path / "bad.yaml"
+    p.write_text(f"lidar: {{bands: {bands}}}\n")
+    with pytest.raises(InputError, match=match):
+        load_profile(p)
 
 
 def test_unknown_profile_name():

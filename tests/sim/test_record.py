@@ -54,7 +54,8 @@ def test_log_layout_and_meta(room_log):
     assert lidar["scan_time"] == 0.2 and lidar["time_increment"] == pytest.approx(0.2 / 360)
     assert log.meta["sim_version"] == SIM_VERSION and log.meta["seed"] == 7
     assert log.meta["noise"]["name"] == "realistic"
-    assert log.meta["noise"]["lidar"]["far_accuracy_ratio"] == 0.05
+    assert log.meta["noise"]["lidar"]["bands"] == [[0.5, 0.015, 0.0], [3.5, 0.0, 0.05]]
+    assert lidar["model"] == "LDS-01" and lidar["angle_increment"] == pytest.approx(np.radians(1))
     assert log.meta["start_pose"] == [1.0, 2.0, 0.0]
     assert log.meta["route_driven"] == 1.0 and log.meta["wall_coverage"] >= 0.95
     assert log.meta["route_length"] == pytest.approx(5.0)

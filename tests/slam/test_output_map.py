@@ -45,7 +45,11 @@ def test_hit_sigmas_match_reference(seed):
     ranges = rng.uniform(0.1, 3.5, 300)
     ranges[100:140] = 1.0 + rng.normal(0, 0.01, 40)
     starts = np.array([0, 90, 90, 200, 300])
-    noise = np.array([0.002, 0.015, 0.05, 0.5, 2.0, 0.001])
+    model = (RangeNoise(stddev=0.002) if seed % 2 else
+             RangeNoise(stddev=0.002, bands=((0.5, 0.01, 0.0), (2.0, 0.0, 0.02), (9.0, 0.03, 0.01))))
+    noise = model.as_array()
+    np.testing.assert_allclose(K.hit_sigmas_ref(ranges, starts, 0, 0.1, noise), model.sigma(ranges),
+                               rtol=1e-12)
     np.testing.assert_allclose(K.hit_sigmas(ranges, starts, 2, 0.1, noise),
                                K.hit_sigmas_ref(ranges, starts, 2, 0.1, noise), rtol=1e-12)
 
