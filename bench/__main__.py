@@ -66,6 +66,9 @@ def _add_run_command(sub) -> None:
                    help="runs per world, algorithm and draw (default 10; 1 with --suite)")
     r.add_argument("--algo", help="comma-separated algorithms (default: all registered)")
     r.add_argument("--noise", help="sensor-noise profile name or YAML (default realistic)")
+    r.add_argument("--lidar", metavar="NAME|FILE,...",
+                   help="record with these lidars (python -m sim lidars), each world crossed with "
+                        "each (default: the suite's, else the LDS-01)")
     r.add_argument("--seed", type=non_negative_int, help="base seed, a non-negative integer (default 0)")
     r.add_argument("--vary", choices=["slam", "data", "both"],
                    help="what changes between repeats: SLAM seed (default, as the study), "
@@ -121,7 +124,7 @@ def cmd_run(args, argv) -> int:
         world=args.world, suite=args.suite, logs=args.logs, algo=args.algo, repeats=args.repeats,
         draws=args.draws, seed=args.seed, noise=args.noise, vary=args.vary,
         min_coverage=args.min_coverage, configs=args.config, sets=args.set, shard=args.shard,
-        resume=args.resume)
+        resume=args.resume, lidar=args.lidar)
     if not spec.logs:
         cache_dir()  # the logs are recorded into it: a cache that cannot be made fails now
     outcome = run_benchmark(spec, out_dir, jobs=args.jobs, scheduler=args.scheduler,

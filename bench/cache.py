@@ -65,21 +65,24 @@ def noise_digest(noise: str) -> str:
     return f"name:{noise}"
 
 
-def log_key(world, seed: int, noise: str, sim_version: str, path=None) -> str:
+def log_key(world, seed: int, noise: str, sim_version: str, path=None, lidar: str | None = None) -> str:
     """Cache key (hex) of the log of `world` (YAML file `path`) recorded with `seed`, `noise`
-    by `sim_version`."""
+    and `lidar` (None: the default lidar, which adds nothing to the key) by `sim_version`."""
     h = hashlib.sha256()
-    for part in (world_digest(world, path), str(int(seed)), noise_digest(noise), str(sim_version)):
+    parts = [world_digest(world, path), str(int(seed)), noise_digest(noise), str(sim_version)]
+    if lidar is not None:
+        parts.append("lidar:" + noise_digest(lidar))
+    for part in parts:
         h.update(part.encode())
         h.update(b"\0")
     return h.hexdigest()[:24]
 
 
-def log_path(world, seed: int, noise: str, path=None) -> Path:
-    """Where the cached log of (world from YAML `path`, seed, noise) lives under the current
-    simulator version."""
+def log_path(world, seed: int, noise: str, path=None, lidar: str | None = None) -> Path:
+    """Where the cached log of (world from YAML `path`, seed, noise, lidar) lives under the
+    current simulator version."""
     import sim
-    key = log_key(world, seed, noise, sim.SIM_VERSION, path)
+    key = log_key(world, seed, noise, sim.SIM_VERSION, path, lidar)
     return cache_dir() / f"{world.name}-s{int(seed)}-{key}.npz"
 
 

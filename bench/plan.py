@@ -25,7 +25,7 @@ from worlds.yamlio import InputError, set_override, short, to_dict
 from slam.registry import ENTRY_POINT_GROUP
 
 __all__ = ["RunSpec", "Task", "VARY", "parse_worlds", "resolve_algos", "shipped_algos",
-           "load_plugins", "parse_configs", "parse_overrides", "read_log_set", "seeds_for",
+           "load_plugins", "parse_configs", "user_config", "parse_overrides", "read_log_set", "seeds_for",
            "make_tasks", "shard_tasks", "parse_shard", "ENTRY_POINT_GROUP"]
 
 VARY = ("slam", "data", "both")
@@ -34,6 +34,7 @@ VARY = ("slam", "data", "both")
 # a run of the limits takes years; they keep a file of a few bytes from planning 10^15 tasks
 MAX_REPEATS = 10_000
 MAX_DRAWS = 1_000
+MAX_LIDARS = 100
 
 
 def _check_count(value, flag: str, limit: int) -> None:
@@ -53,7 +54,9 @@ class RunSpec:
     walls gives failed rows; suite: the suite's name, for the report ("" outside a suite);
     logs: recorded sensor logs to run on instead of recording (absolute paths; see
     read_log_set); overrides: algo -> nested mapping of config fields set on top of its config;
-    shard: (K, N), this run does the K-th of N deterministic slices of the tasks (shard_tasks).
+    shard: (K, N), this run does the K-th of N deterministic slices of the tasks (shard_tasks);
+    lidars: catalogue names or lidar YAML paths the logs are recorded with, each world crossed
+    with each (world key WORLD+LIDAR; empty: the recording's default, the LDS-01).
     """
 
     worlds: tuple[str, ...]
@@ -69,6 +72,7 @@ class RunSpec:
     logs: tuple[str, ...] = ()
     overrides: dict = field(default_factory=dict)
     shard: tuple[int, int] = (1, 1)
+    lidars: tuple[str, ...] = ()
 
     def __post_init__(self):
         _check_count(self.repeats, "--repeats", MAX_REPEATS)
@@ -114,6 +118,14 @@ class RunSpec:
                 or not 1 <= shard[0] <= shard[1]):
             raise InputError(f"--shard must be K/N with 1 <= K <= N, got {short(self.shard)}")
         object.__setattr__(self, "shard", shard)
+        if isinstance(self.lidars, str) or not isinstance(self.lidars, (list, tuple)) or not all(
+                isinstance(v, str) and v for v in self.lidars):
+            raise InputError(f"--lidar must be a list of lidar names or files, got {short(self.lidars)}")
+        if len(self.lidars) > MAX_LIDARS:
+            raise InputError(f"--lidar: {len(self.lidars)} lidars, more than the limit of {MAX_LIDARS}")
+        object.__setattr__(self, "lidars", tuple(dict.fromkeys(self.lidars)))
+        if self.lidars and self.logs:
+            raise InputError("--lidar: a run on given --logs takes their lidar; record instead")
         if self.logs and (self.draws != 1 or self.vary != "slam"):
             raise InputError("--logs: each log is one draw; repeats vary the SLAM seed only")
 
@@ -285,11 +297,24 @@ def load_config_checked(algo: str, path: str | None, overrides: dict | None = No
     """The config dataclass of `algo` from `path` (None: defaults) with `overrides` (a nested
     mapping) set on top; InputError on a bad file or field."""
     from slam.registry import load_config
-    cfg = load_config(algo, path)
-    if not overrides:
-        return cfg
-    merged = _merge(to_dict(cfg), overrides)
-    return load_config(algo, merged)
+    return load_config(algo, user_config(algo, path, overrides))
+
+
+def user_config(algo: str, path: str | None, overrides: dict | None = None) -> dict:
+    """What the user's config of `algo` sets: the YAML file's mapping (None: nothing) with
+    `overrides` merged in, checked against the config class. The runs resolve it per log
+    (slam.registry.load_config), over the values the algorithm derives from that log."""
+    from slam.registry import load_config
+    from worlds.yamlio import load_yaml
+    data = load_yaml(Path(path)) if path else {}
+    if data is None:
+        data = {}
+    if not isinstance(data, dict):
+        raise InputError(f"{path}: top level: expected a mapping of config fields")
+    load_config(algo, path)                 # errors name the file and the field
+    merged = _merge(data, overrides) if overrides else dict(data)
+    load_config(algo, merged)
+    return merged
 
 
 def _merge(base: dict, over: dict) -> dict:
@@ -370,6 +395,7 @@ def _log_world(path: Path, meta: dict) -> str:
 
 
 def config_dict(algo: str, path: str | None, overrides: dict | None = None) -> dict:
-    """The effective config of `algo` as plain data (for run.json)."""
+    """The config of `algo` over the class defaults as plain data (for run.json; each run
+    derives its sensor-dependent values from its log on top of these defaults)."""
     return to_dict(load_config_checked(algo, path, overrides))
 

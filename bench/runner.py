@@ -30,13 +30,15 @@ import numpy as np
 from worlds.yamlio import InputError
 from bench import cache
 from bench.executors import make_executor
-from bench.plan import RunSpec, Task, load_config_checked, load_plugins, make_tasks, shard_tasks
+from bench.plan import (RunSpec, Task, load_config_checked, load_plugins, make_tasks, shard_tasks,
+                        user_config)
 from bench.progress import Progress
 from bench.results import RUN_NAME, ResultStore, read_run, run_spec
 from bench.rundir import check_run_dir, run_lock, save_arrays, save_gt, save_truth, write_run_json
 from bench.task import WorldInfo, compile_algorithm, execute, new_row, record_log
 
-__all__ = ["run_benchmark", "RunOutcome", "RunPlan", "Scheduler", "load_worlds", "print_outcome"]
+__all__ = ["run_benchmark", "RunOutcome", "RunPlan", "Scheduler", "load_worlds", "cross_lidars",
+           "print_outcome"]
 
 
 @dataclass
@@ -66,6 +68,7 @@ class RunPlan:
     out_dir: Path
     worlds: dict
     world_files: dict
+    lidars: dict            # world key -> the lidar its logs are recorded with (None: default)
     infos: dict[str, WorldInfo]
     configs: dict
     classes: dict[str, type]
@@ -80,7 +83,8 @@ class RunPlan:
     def cached_log_path(self, lkey: tuple[str, int]) -> Path:
         """Where the log cache keeps (or a recording puts) the log of (world key, log seed)."""
         key, seed = lkey
-        return cache.log_path(self.worlds[key], seed, self.spec.noise, self.world_files[key])
+        return cache.log_path(self.worlds[key], seed, self.spec.noise, self.world_files[key],
+                              self.lidars.get(key))
 
     def compile_order(self) -> list[str]:
         """The run's algorithms, the costliest to compile first (Slam.compile_cost_s)."""
@@ -108,12 +112,28 @@ def load_worlds(names: list[str]):
     return out, files
 
 
-def _check_cache_writable(spec: RunSpec, world_map: dict, world_files: dict) -> None:
+def cross_lidars(world_map: dict, world_files: dict, lidars) -> tuple[dict, dict, dict]:
+    """Each world crossed with each lidar: ({WORLD+LIDAR: World}, {...: YAML file},
+    {...: lidar}); without lidars the maps as given, every lidar None (the default). The key's
+    lidar part is the catalogue name, or a lidar file's stem."""
+    if not lidars:
+        return world_map, world_files, {k: None for k in world_map}
+    out, files, of = {}, {}, {}
+    for key, w in world_map.items():
+        for lidar in lidars:
+            k = f"{key}+{Path(lidar).stem if lidar.endswith(('.yaml', '.yml')) else lidar}"
+            out[k], files[k], of[k] = w, world_files[key], lidar
+    return out, files, of
+
+
+def _check_cache_writable(spec: RunSpec, world_map: dict, world_files: dict,
+                          lidar_of: dict) -> None:
     """InputError naming the log cache when a log must be recorded and the cache cannot take
     it (checked by writing, so a read-only folder is caught for root too); a read-only cache
     that holds every log is fine."""
     needed = {(t.world, t.log_seed) for t in make_tasks(spec, list(world_map))}
-    if all(cache.log_path(world_map[w], s, spec.noise, world_files[w]).exists() for w, s in needed):
+    if all(cache.log_path(world_map[w], s, spec.noise, world_files[w], lidar_of[w]).exists()
+           for w, s in needed):
         return
     folder = cache.cache_dir()
     try:
@@ -133,7 +153,9 @@ def _check_inputs(spec: RunSpec):
     import sim
     if hasattr(sim, "load_profile") and not spec.logs:
         sim.load_profile(spec.noise)
-    return load_worlds(list(spec.worlds))
+        for lidar in spec.lidars:
+            sim.load_lidar(lidar)
+    return cross_lidars(*load_worlds(list(spec.worlds)), spec.lidars)
 
 
 def run_benchmark(spec: RunSpec, out_dir: str | Path, jobs: int | None = None,
@@ -147,9 +169,9 @@ def run_benchmark(spec: RunSpec, out_dir: str | Path, jobs: int | None = None,
     """
     out_dir = Path(out_dir)
     with run_lock(out_dir):
-        world_map, world_files = _open_run(spec, out_dir, resume, argv)
+        world_map, world_files, lidar_of = _open_run(spec, out_dir, resume, argv)
         store = ResultStore(out_dir)
-        plan = _prepare(spec, out_dir, world_map, world_files, store)
+        plan = _prepare(spec, out_dir, world_map, world_files, lidar_of, store)
         todo = sum(len(ts) for ts in plan.by_log.values())
         bar = Progress(todo, already=plan.total - todo, stream=stream, enabled=progress)
         outcome = _stored_outcome(out_dir, plan.total, store)
@@ -160,7 +182,7 @@ def run_benchmark(spec: RunSpec, out_dir: str | Path, jobs: int | None = None,
                          remote=scheduler is not None).run()
 
 
-def _open_run(spec: RunSpec, out_dir: Path, resume: bool, argv) -> tuple[dict, dict]:
+def _open_run(spec: RunSpec, out_dir: Path, resume: bool, argv) -> tuple[dict, dict, dict]:
     """Check the folder (and that a resumed run's spec is `spec`) and every input, then write
     run.json; the worlds as load_worlds gives them."""
     check_run_dir(out_dir, resume)
@@ -169,19 +191,19 @@ def _open_run(spec: RunSpec, out_dir: Path, resume: bool, argv) -> tuple[dict, d
         raise InputError(f"--resume {out_dir}: the run was started with other arguments; "
                          "resume it without --world/--algo/--repeats/--seed/--noise/--vary/--config")
     try:
-        world_map, world_files = _check_inputs(spec)
+        world_map, world_files, lidar_of = _check_inputs(spec)
     except InputError as err:
         if previous is None:
             raise
         # the files a resumed run names come from its run.json, not from the command line
         raise InputError(f"{out_dir / RUN_NAME}: spec: {err}") from None
     if not spec.logs:
-        _check_cache_writable(spec, world_map, world_files)
+        _check_cache_writable(spec, world_map, world_files, lidar_of)
     write_run_json(out_dir, spec, world_map, world_files, argv, previous)
-    return world_map, world_files
+    return world_map, world_files, lidar_of
 
 
-def _prepare(spec: RunSpec, out_dir: Path, world_map: dict, world_files: dict,
+def _prepare(spec: RunSpec, out_dir: Path, world_map: dict, world_files: dict, lidar_of: dict,
              store: ResultStore) -> RunPlan:
     """The RunPlan of the tasks not in `store`; each world's truth is rasterized and saved."""
     import worlds
@@ -191,10 +213,9 @@ def _prepare(spec: RunSpec, out_dir: Path, world_map: dict, world_files: dict,
         infos[key] = WorldInfo(key, truth, tuple(float(v) for v in w.bounds), str(w.source or ""),
                                np.asarray(w.visible_segments, dtype=np.float64).reshape(-1, 4))
         save_truth(out_dir, key, w, truth)
-    configs = {a: load_config_checked(a, spec.configs.get(a), spec.overrides.get(a))
-               for a in spec.algos}
+    configs = {a: user_config(a, spec.configs.get(a), spec.overrides.get(a)) for a in spec.algos}
     from slam import registry
-    plan = RunPlan(spec, out_dir, world_map, world_files, infos, configs,
+    plan = RunPlan(spec, out_dir, world_map, world_files, lidar_of, infos, configs,
                    {a: registry.get(a) for a in spec.algos}, _given_logs(spec, world_map))
     all_tasks = shard_tasks(make_tasks(spec, list(world_map),
                                        list(plan.given) if spec.logs else None), spec.shard)
@@ -265,7 +286,8 @@ class Scheduler:
                 else:
                     self.bar.note(f"recording {lkey[0]} seed {lkey[1]}")
                     self._submit(self.log_recorded, lkey, record_log,
-                                 self.plan.worlds[lkey[0]], lkey[1], self.spec.noise)
+                                 self.plan.worlds[lkey[0]], lkey[1], self.spec.noise,
+                                 self.plan.lidars.get(lkey[0]))
             while self.pending:
                 done, _ = self.ex.wait_any(list(self.pending))
                 for fut in done:

@@ -23,16 +23,19 @@ def spec_from_options(*, world: str | None = None, suite: str | None = None,
                       draws: int | None = None, seed: int | None = None, noise: str | None = None,
                       vary: str | None = None, min_coverage: float | None = None,
                       configs: list[str] | None = None, sets: list[str] | None = None,
-                      shard: tuple[int, int] | None = None, resume: str | Path | None = None) -> RunSpec:
+                      shard: tuple[int, int] | None = None, resume: str | Path | None = None,
+                      lidar: str | None = None) -> RunSpec:
     """The RunSpec of these `bench run` options (each as its flag takes it: algo "pf,gn",
-    configs ["pf=pf.yaml"], sets ["pf.particles=50"], shard (K, N)); see the module docstring.
+    configs ["pf=pf.yaml"], sets ["pf.particles=50"], shard (K, N), lidar "utm-30lx,lds-01");
+    see the module docstring.
     InputError when they do not fit together or name something that is not there."""
     if sum(bool(v) for v in (world, suite, logs)) > 1:
         raise InputError("give one of --world, --suite and --logs")
     base = None
     if resume:
         base = run_spec(read_run(Path(resume)), Path(resume) / RUN_NAME)
-        given = (world, suite, logs, draws, min_coverage, algo, repeats, seed, noise, vary, shard)
+        given = (world, suite, logs, draws, min_coverage, algo, repeats, seed, noise, vary, shard,
+                 lidar)
         if all(v is None for v in given) and not configs and not sets:
             return base
     elif not (world or suite or logs):
@@ -60,6 +63,8 @@ def spec_from_options(*, world: str | None = None, suite: str | None = None,
         logs=log_files,
         overrides=parse_overrides(sets, algos) if sets else (base.overrides if base else {}),
         shard=shard or (base.shard if base else (1, 1)),
+        lidars=(tuple(v.strip() for v in lidar.split(",") if v.strip()) if lidar else
+                loaded_suite.lidars if loaded_suite is not None else (base.lidars if base else ())),
     )
 
 

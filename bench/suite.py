@@ -5,6 +5,9 @@ A suite file is YAML:
     name: general                    # optional, default: the file's stem
     description: ...                 # optional
     draws: 3                         # noise draws per world (optional, default 3)
+    lidar: [lds-01, utm-30lx]        # optional: record with these lidars (sim/lidars/ names or
+                                     #   YAML files, relative to the suite file), each world
+                                     #   crossed with each; default the LDS-01
     worlds:
       - rectangle_s                  # a shipped world
       - ../my_worlds/office.yaml     # a world file, relative to the suite file
@@ -29,7 +32,7 @@ from worlds.yamlio import InputError, _suggest, atomic_write_text, load_yaml, sh
 __all__ = ["Suite", "load_suite", "list_suites", "suite_dir", "DEFAULT_DRAWS"]
 
 DEFAULT_DRAWS = 3
-_KEYS = ["name", "description", "draws", "worlds"]
+_KEYS = ["name", "description", "draws", "worlds", "lidar"]
 # a suite of the limits runs for weeks; they keep a file of a few bytes from planning millions
 # of tasks (docs/formats.md, "Limits")
 MAX_WORLDS = 1000
@@ -38,13 +41,15 @@ _GENERATE_KEYS = ["generate", "seed", "size"]
 
 @dataclass(frozen=True)
 class Suite:
-    """name; description; draws >= 1; worlds: shipped names or absolute YAML paths."""
+    """name; description; draws >= 1; worlds: shipped names or absolute YAML paths; lidars:
+    catalogue names or absolute lidar YAML paths (empty: the default lidar)."""
 
     name: str
     description: str
     draws: int
     worlds: tuple[str, ...]
     source: str = ""
+    lidars: tuple[str, ...] = ()
 
 
 def suite_dir() -> Path:
@@ -103,7 +108,35 @@ def load_suite(name_or_path: str) -> Suite:
         w = ref if ref is not None else _generate(*generated[i], where, f"worlds[{i}]")
         if w not in worlds:
             worlds.append(w)
-    return Suite(name, desc, draws, tuple(worlds), str(p))
+    return Suite(name, desc, draws, tuple(worlds), str(p), _lidars(data.get("lidar"), where, p.parent))
+
+
+def _lidars(value: Any, where: str, base: Path) -> tuple[str, ...]:
+    """The suite's `lidar` field -> catalogue names and absolute YAML paths (each checked)."""
+    from sim.lidar import load_lidar
+    if value is None:
+        return ()
+    items = [value] if isinstance(value, str) else value
+    if not isinstance(items, list) or not items or len(items) > 100:
+        raise InputError(f"{where}: lidar: expected a lidar name, a .yaml path or a list of "
+                         f"up to 100 of them, got {short(value)}")
+    out = []
+    for i, item in enumerate(items):
+        field = "lidar" if isinstance(value, str) else f"lidar[{i}]"
+        if not isinstance(item, str) or not item.strip():
+            raise InputError(f"{where}: {field}: expected a lidar name or a .yaml path, got {short(item)}")
+        item = item.strip()
+        if Path(item).suffix.lower() in (".yaml", ".yml") or "/" in item:
+            item = str((base / Path(item).expanduser()).resolve())
+        else:
+            check_name(item, where, field)
+        try:
+            load_lidar(item)
+        except InputError as err:
+            raise InputError(f"{where}: {field}: {err}") from None
+        if item not in out:
+            out.append(item)
+    return tuple(out)
 
 
 def _world(item: Any, where: str, field: str, base: Path) -> str:

@@ -65,10 +65,11 @@ def versions() -> dict:
     return dict(_VERSIONS)
 
 
-def record_log(world, seed: int, noise: str):
-    """Record the sensor log of `world` (a World) with `seed` and `noise` (worker job)."""
+def record_log(world, seed: int, noise: str, lidar: str | None = None):
+    """Record the sensor log of `world` (a World) with `seed`, `noise` and `lidar` (a catalogue
+    name or lidar YAML; None: the default) (worker job)."""
     import sim
-    return sim.record(world, seed=int(seed), noise=noise)
+    return sim.record(world, seed=int(seed), noise=noise, lidar=lidar)
 
 
 _LOGS: dict[str, object] = {}

@@ -81,7 +81,9 @@ class Slam(ABC):
         compiled kernel once;
     compile_cost_s: its cold compile time, s (a rough figure: the benchmark sends the compile
         jobs out heaviest first so the workers finish them together).
-    It is built as `Cls(config, start, rng)`; `self.config` is what config.yaml records.
+    It is built as `Cls(config, start, rng)`; `self.config` is what config.yaml records. What
+    depends on the sensor (ranges, beam spacing, rates) it derives from the log in
+    `derive_config`.
     """
 
     name: ClassVar[str] = ""
@@ -107,6 +109,13 @@ class Slam(ABC):
     @abstractmethod
     def trajectory(self) -> tuple[np.ndarray, np.ndarray]:
         """Times (N,) and poses (N, 3), one per scan."""
+
+    @classmethod
+    def derive_config(cls, sensors) -> list:
+        """The config values this algorithm takes from the log's sensors (a
+        slam.sensors.SensorFacts), as slam.sensors.Derived records; a value the user's config
+        sets wins over them. The default: none."""
+        return []
 
     def finish(self) -> None:
         """Called once after the last scan (a final optimization, say)."""

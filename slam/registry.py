@@ -16,7 +16,7 @@ from worlds.yamlio import InputError, from_dict, load_yaml, short
 from slam.base import check_algorithm_class
 
 __all__ = ["ENTRY_POINT_GROUP", "BUILTIN", "register", "algorithms", "names", "get", "find",
-           "ensure", "load_config", "load_plugins"]
+           "ensure", "load_config", "explain_config", "load_plugins"]
 
 ENTRY_POINT_GROUP = "slam_bench.algorithms"
 # name -> "module:Class"; the benchmark's tables list them in this order
@@ -99,14 +99,47 @@ def ensure(name: str, cls: type | None) -> None:
         register(name)(cls)
 
 
-def load_config(name: str, config: Any = None):
-    """The config dataclass of algorithm `name` from None (defaults), a mapping or a YAML path."""
-    cls = get(name).config_class
-    if config is None:
-        return cls()
+def load_config(name: str, config: Any = None, log=None):
+    """The config dataclass of algorithm `name` from None (defaults), a mapping or a YAML path.
+
+    With `log` (a SensorLog), the values the algorithm derives from the log's sensors
+    (Slam.derive_config) stand in for the class defaults, and what `config` names is set over
+    them: a value set in a config still wins. A config dataclass is taken as it is.
+    """
+    return _resolve(name, config, log)[0]
+
+
+def explain_config(name: str, config: Any = None, log=None) -> list:
+    """The values algorithm `name` derives from `log` (slam.sensors.Derived), each marked
+    `overridden` when `config` sets its path: [(Derived, overridden), ...]."""
+    return _resolve(name, config, log)[1]
+
+
+def _resolve(name: str, config: Any, log):
+    algo = get(name)
+    cls = algo.config_class
     if isinstance(config, cls):
-        return config
-    if isinstance(config, Mapping):
-        return from_dict(cls, config, where="<config>")
-    path = Path(config)
-    return from_dict(cls, load_yaml(path), where=str(path))
+        return config, []
+    if config is None:
+        data, where = {}, "<config>"
+    elif isinstance(config, Mapping):
+        data, where = config, "<config>"
+    else:
+        path = Path(config)
+        data, where = load_yaml(path), str(path)
+    base, derived = cls(), []
+    if log is not None:
+        from slam.sensors import apply_derived, sensor_facts
+        derived = list(algo.derive_config(sensor_facts(log)))
+        base = apply_derived(base, derived)
+    cfg = from_dict(cls, data, where=where, base=base)
+    return cfg, [(d, _names(data, d.path)) for d in derived]
+
+
+def _names(data: Any, path: str) -> bool:
+    """True when the nested mapping `data` sets the dotted `path`."""
+    for part in path.split("."):
+        if not isinstance(data, Mapping) or part not in data:
+            return False
+        data = data[part]
+    return True

@@ -100,9 +100,10 @@ def run(slam: Slam, log: SensorLog) -> SlamResult:
 
 
 def run_algorithm(name: str, log: SensorLog, config: Any = None, seed: int = 0) -> SlamResult:
-    """Build algorithm `name` with `config` (None, mapping or YAML path) and seed, and run it on `log`."""
+    """Build algorithm `name` with `config` (None, mapping or YAML path, over the values it
+    derives from the log; a config dataclass as it is) and seed, and run it on `log`."""
     cls = get_algorithm(name)
-    cfg = load_config(name, config)
+    cfg = load_config(name, config, log=log)
     slam = cls(cfg, log.start_pose.copy(), np.random.default_rng(seed))
     result = run(slam, log)
     result.stats.update({"algo": name, "seed": int(seed)})

@@ -1,9 +1,11 @@
 """Every SLAM on the MIT CSAIL raw log, scored with the Kuemmerle relations metric.
 
-    python tools/csail.py [--data DIR] [--algo graph,pf,gn] [--out DIR] [--seed S]
+    python tools/csail.py [--data DIR] [--algo graph,pf,gn] [--config ALGO=FILE ...] [--out DIR]
+                          [--seed S]
 
 Reads DIR/csail.corrected.gfs (406 raw scans, raw odometry at all 1988 scan times) and
-DIR/mit-csail.relations, runs each algorithm with slam/configs/csail_<algo>.yaml, looks its
+DIR/mit-csail.relations, runs each algorithm with its defaults (what it derives from the log;
+--config gives one a YAML file), looks its
 trajectory up at the relation times (poses between its scans carried by the odometry from the
 nearest scan, see metrics/relations.py) and prints, beside the published rows, the four error
 statistics over all 1172 relations and the absolute translational error over the relations
@@ -28,7 +30,6 @@ from worlds.jsonio import dumps  # noqa: E402
 from worlds.yamlio import InputError  # noqa: E402
 
 DEFAULT_DATA = ROOT.parent / "shared" / "data" / "radish"
-CONFIGS = ROOT / "slam" / "configs"
 
 # mean +- std over all relations: abs trans (m), sq trans (m^2), abs rot (deg), sq rot (deg^2);
 # wall time (s) for the 424 s of data. Sources: ../shared/data/radish/PUBLISHED.md and README.md.
@@ -82,19 +83,24 @@ def format_table(rows: list[dict], duration: float) -> str:
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--data", default=str(DEFAULT_DATA), help="folder with the Radish files")
-    ap.add_argument("--algo", default=None, help="comma-separated algorithms (default: all with a "
-                                                 "csail_<algo>.yaml that are registered)")
+    ap.add_argument("--algo", default="graph,pf,gn", help="comma-separated algorithms "
+                                                          "(default graph,pf,gn)")
+    ap.add_argument("--config", action="append", default=[], metavar="ALGO=FILE",
+                    help="run ALGO with the config FILE instead of its defaults (repeatable)")
     ap.add_argument("--out", default="csail_bench", help="output folder")
     ap.add_argument("--seed", type=int, default=0)
     args = ap.parse_args(argv)
     try:
-        return run(Path(args.data), args.algo, Path(args.out), args.seed)
+        configs = dict(c.split("=", 1) for c in args.config if "=" in c)
+        if len(configs) != len(args.config):
+            raise InputError(f"--config: expected ALGO=FILE, got {args.config}")
+        return run(Path(args.data), args.algo, Path(args.out), args.seed, configs)
     except InputError as err:
         print(f"error: {err}", file=sys.stderr)
         return 2
 
 
-def run(data: Path, algos: str | None, out: Path, seed: int) -> int:
+def run(data: Path, algos: str, out: Path, seed: int, configs: dict | None = None) -> int:
     from slam.registry import names as algorithm_names
     from slam.replay import run_algorithm
     from slam.io import write_result
@@ -104,11 +110,8 @@ def run(data: Path, algos: str | None, out: Path, seed: int) -> int:
     rel = read_relations(data / "mit-csail.relations")
     odom = (log.odom_t, log.odom_pose)
     duration = float(log.odom_t[-1] - log.odom_t[0])   # 424.0 s, the paper's data duration
-    if algos is None:
-        names = [p.stem[len("csail_"):] for p in sorted(CONFIGS.glob("csail_*.yaml"))]
-        names = [n for n in names if n in known]
-    else:
-        names = [a.strip() for a in algos.split(",") if a.strip()]
+    names = [a.strip() for a in algos.split(",") if a.strip()]
+    configs = configs or {}
     print(f"CSAIL: {log.n_scans} scans, {len(log.odom_t)} odometry poses, {duration:.1f} s of data; "
           f"{len(rel)} relations; algorithms: {', '.join(names) or 'none registered'}", flush=True)
     out.mkdir(parents=True, exist_ok=True)
@@ -117,9 +120,8 @@ def run(data: Path, algos: str | None, out: Path, seed: int) -> int:
         if name not in known:
             print(f"  {name}: not registered in this checkout, skipped", flush=True)
             continue
-        cfg = CONFIGS / f"csail_{name}.yaml"
         t0 = time.perf_counter()
-        result = run_algorithm(name, log, config=cfg if cfg.exists() else None, seed=seed)
+        result = run_algorithm(name, log, config=configs.get(name), seed=seed)
         wall = time.perf_counter() - t0
         write_result(result, out / name)
         res = relations_error(result.times, result.poses, rel, odom)

@@ -12,6 +12,7 @@ import numpy as np
 from worlds.grid import Grid
 from slam.base import ImuWindow, OdomDelta, Scan, Slam
 from slam.gn.config import GnConfig
+from slam.gn.defaults import derive_gn_config
 from slam.gn.levels import MapLevels
 from slam.gn.matching import match_scan
 from slam.gn.motion import Prediction, predict
@@ -29,6 +30,11 @@ class GaussNewtonSlam(Slam):
     config_class = GnConfig
     family = "Hector"
     compile_cost_s = 5.0   # s, cold, alone (docs/benchmark.md#cost)
+
+    @classmethod
+    def derive_config(cls, sensors) -> list:
+        """The values this algorithm takes from the log's sensors (slam/gn/defaults.py)."""
+        return derive_gn_config(sensors)
 
     def __init__(self, config: GnConfig, start: np.ndarray, rng: np.random.Generator):
         super().__init__(config, start, rng)

@@ -9,6 +9,7 @@ import numpy as np
 from worlds.grid import Grid
 from slam.base import ImuWindow, OdomDelta, Scan, Slam
 from slam.graph.config import GraphConfig
+from slam.graph.defaults import derive_graph_config
 from slam.graph.local import LocalSlam
 from slam.graph.pose_graph import PoseGraph
 from slam.output_map import output_map_from_trajectory
@@ -27,6 +28,11 @@ class GraphSlam(Slam):
     # the loop-closure search starts once the first submap is finished (about 250 scans on
     # the shipped worlds' routes): the warm-up has to get there to compile its kernels
     warmup_scans = 300
+
+    @classmethod
+    def derive_config(cls, sensors) -> list:
+        """The values this algorithm takes from the log's sensors (slam/graph/defaults.py)."""
+        return derive_graph_config(sensors)
 
     def __init__(self, config: GraphConfig, start: np.ndarray, rng: np.random.Generator):
         super().__init__(config, start, rng)

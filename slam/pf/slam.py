@@ -11,6 +11,7 @@ from worlds.grid import Grid
 from slam.base import ImuWindow, OdomDelta, Scan, Slam
 from slam.output_map import output_map_from_trajectory
 from slam.pf.config import PfConfig
+from slam.pf.defaults import derive_pf_config
 from slam.pf.maps import TiledMaps
 from slam.pf.motion import (effective_sample_size, motion_std, normalized_weights,
                             sample_motion, systematic_resample)
@@ -29,6 +30,11 @@ class ParticleFilterSlam(Slam):
     needs_odometry = True
     family = "Gmapping"
     compile_cost_s = 16.0   # s, cold, alone (docs/benchmark.md#cost)
+
+    @classmethod
+    def derive_config(cls, sensors) -> list:
+        """The values this algorithm takes from the log's sensors (slam/pf/defaults.py)."""
+        return derive_pf_config(sensors)
 
     def __init__(self, config: PfConfig, start: np.ndarray, rng: np.random.Generator):
         super().__init__(config, start, rng)

@@ -193,7 +193,7 @@ def test_compile_jobs_go_out_costliest_first_by_the_classes_estimate(monkeypatch
     from slam import registry
     algos = (*registry.BUILTIN, "fake_map", "fake_raise")
     monkeypatch.setattr(fakes.FakeRaise, "compile_cost_s", 20.0)   # a plugin's own estimate
-    plan = RunPlan(RunSpec(worlds=("w",), algos=algos), Path("."), {}, {}, {}, {},
+    plan = RunPlan(RunSpec(worlds=("w",), algos=algos), Path("."), {}, {}, {}, {}, {},
                    {a: registry.get(a) for a in algos}, {})
     order = plan.compile_order()
     assert order[0] == "fake_raise" and order[-1] == "fake_map"   # no estimate: 0 s, last

@@ -1,0 +1,63 @@
+"""graph's config values that follow from the log's sensors (GraphSlam.derive_config).
+
+Each rule gives GraphConfig's TurtleBot3 values on a simulated LDS-01 log (5 Hz, 360 beams,
+0.12-3.5 m, +-5 % noise, wheel odometry and IMU, a few centimetres between scans); on other
+logs it gives what Cartographer's options mean for that sensor and that log's scan spacing.
+"""
+from __future__ import annotations
+
+import math
+
+from slam.sensors import Derived, SensorFacts
+
+__all__ = ["derive_graph_config", "SPARSE_STEP", "REFERENCE_RATE"]
+
+# consecutive scans farther apart than this (m, by odometry) come from a thinned log (a .gfs
+# keeps a scan per metre): the scan-to-scan prediction is coarse
+SPARSE_STEP = 0.1
+# the LDS-01's scan rate, Hz, for which the motion filter's angle was chosen
+REFERENCE_RATE = 5.0
+
+
+def _sig(v: float) -> float:
+    """v to four significant digits (a derived value reads as the rule's number)."""
+    return float(f"{v:.4g}")
+
+
+def derive_graph_config(s: SensorFacts) -> list[Derived]:
+    """graph's sensor-dependent values from `s`."""
+    tb = "trajectory_builder."
+    sparse = (not s.odometry) or s.scan_step > SPARSE_STEP
+    out = [
+        Derived(tb + "min_range", s.range_min, "the sensor's range_min"),
+        Derived(tb + "max_range", s.range_max, "the sensor's range_max"),
+        Derived(tb + "missing_data_ray_length", min(5.0, max(0.0, s.range_max - 0.5)),
+                "no-return beams free space to 0.5 m short of the range limit, at most "
+                "Cartographer's 5 m"),
+        Derived(tb + "adaptive_voxel_filter.max_range", max(50.0, s.range_max),
+                "Cartographer's 50 m, or the range limit when larger"),
+        Derived(tb + "use_imu_data", bool(s.imu), "the gyro's yaw rate when the log has an IMU"),
+        Derived(tb + "use_online_correlative_scan_matching", bool(sparse),
+                f"on when the log has no odometry or its scans are more than {SPARSE_STEP} m "
+                f"apart (median {s.scan_step:.3f} m): the prediction is then coarse"),
+        Derived(tb + "real_time_correlative_scan_matcher.linear_search_window",
+                _sig(max(0.1, 0.2 * s.scan_step)),
+                "0.1 m, or a fifth of the median odometry step between scans when larger"),
+        Derived(tb + "motion_filter.max_angle_radians",
+                math.radians(0.1 * max(1.0, s.scan_rate / REFERENCE_RATE)),
+                f"0.1 degree at {REFERENCE_RATE:g} Hz, scaled with the scan rate "
+                f"({s.scan_rate:.1f} Hz) so a turn keeps as many nodes"),
+    ]
+    nodes = 90 if not sparse or s.scan_step <= 0 else max(30, min(90, round(30.0 / s.scan_step)))
+    out.append(Derived(tb + "submaps.num_range_data", int(nodes),
+                       "90 scans (Cartographer's); from a thinned log, about 30 m of travel, at "
+                       "least 30"))
+    out.append(Derived("pose_graph.optimize_every_n_nodes", int(nodes), "once per submap"))
+    noise = s.range_noise
+    out.append(Derived(tb + "submaps.range_sigma_min", _sig(float(noise.sigma(max(s.range_min, 0.0)))),
+                       "the range noise model's sigma at range_min"))
+    out.append(Derived(tb + "submaps.range_sigma_ratio",
+                       _sig(float(noise.sigma(s.range_max)) / s.range_max)
+                       if math.isfinite(s.range_max) and s.range_max > 0 else 0.025,
+                       "the range noise model's sigma at range_max, over range_max"))
+    return out

@@ -1,0 +1,31 @@
+"""pf's config values that follow from the log's sensors (ParticleFilterSlam.derive_config).
+
+Each rule gives the TurtleBot3 values of PfConfig on an LDS-01 log (360 beams, 3.5 m,
++-5 % noise), so those logs run as before; on another lidar it gives what GMapping's own
+parameters mean for that sensor.
+"""
+from __future__ import annotations
+
+from slam.sensors import Derived, SensorFacts, noise_smoothing_beams
+
+__all__ = ["derive_pf_config", "MATCHED_BEAMS"]
+
+# beams a scan is matched with: the LDS-01's 360 (GMapping's lskip thins denser scanners)
+MATCHED_BEAMS = 360
+
+
+def derive_pf_config(s: SensorFacts, delta: float = 0.05) -> list[Derived]:
+    """pf's sensor-dependent values from `s` (delta: the map resolution, m)."""
+    out = [Derived("max_urange", s.range_max,
+                   "the sensor's range limit: every return is used (GMapping's maxUrange)")]
+    extent = max(50.0, 1.25 * s.range_max)
+    out.append(Derived("map_extent", extent,
+                       "50 m, or 1.25 x the range limit when larger, so a scan taken near the "
+                       "map's edge stays on it"))
+    out.append(Derived("smooth_beams", noise_smoothing_beams(s, delta),
+                       f"neighbouring beams averaged until the range noise at 2 m is a quarter "
+                       f"cell ({delta / 4:g} m), at most 4"))
+    out.append(Derived("matcher.lskip", max(0, round(s.beams / MATCHED_BEAMS) - 1),
+                       f"match about {MATCHED_BEAMS} beams a scan: every (lskip+1)-th of "
+                       f"{s.beams}"))
+    return out
