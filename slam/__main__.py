@@ -1,4 +1,5 @@
-"""Command line: `python -m slam run --algo NAME --log LOG --out DIR [--config YAML] [--seed S]`,
+"""Command line: `python -m slam run --algo NAME --log LOG --out DIR [--config YAML] [--seed S]`
+(`--explain` instead of `--out`: print the values the algorithm derives from the log),
 `python -m slam list`, `python -m slam fields NAME [--update PAGE]`. User errors print one line `error: ...` and exit with code 2."""
 from __future__ import annotations
 
@@ -14,8 +15,11 @@ def build_parser() -> argparse.ArgumentParser:
     r = sub.add_parser("run", help="run one algorithm on one log and write map, trajectory, stats")
     r.add_argument("--algo", required=True, help="algorithm name (see `list`)")
     r.add_argument("--log", required=True, help="sensor log (.npz)")
-    r.add_argument("--out", required=True, help="output directory")
+    r.add_argument("--out", help="output directory (required unless --explain)")
     r.add_argument("--config", default=None, help="YAML with config overrides")
+    r.add_argument("--explain", action="store_true",
+                   help="print each config value derived from the log's sensors, the rule that "
+                        "gave it and whether --config overrides it; run nothing")
     r.add_argument("--seed", type=non_negative_int, default=0,
                    help="random seed, a non-negative integer (default 0)")
     r.add_argument("--quiet", action="store_true", help="print nothing on success")
@@ -25,6 +29,23 @@ def build_parser() -> argparse.ArgumentParser:
     f.add_argument("--update", metavar="PAGE", help="write the table into PAGE between its "
                    "<!-- fields --> markers instead")
     return p
+
+
+def cmd_explain(algo: str, log: str, config: str | None = None) -> str:
+    """A Markdown table of the values `algo` derives from the log (path, value, rule, and
+    whether `config` sets the path instead)."""
+    from sim.logs import read_log
+    from slam.registry import explain_config
+
+    rows = explain_config(algo, config, read_log(log))
+    lines = [f"{algo} on {log}: {len(rows)} values derived from the log's sensors", "",
+             "| field | value | rule |", "|---|---|---|"]
+    for d, overridden in rows:
+        value = f"{d.value:.6g}" if isinstance(d.value, float) else str(d.value).lower() \
+            if isinstance(d.value, bool) else str(d.value)
+        note = " (--config sets it instead)" if overridden else ""
+        lines.append(f"| {d.path} | {value} | {d.rule}{note} |")
+    return "\n".join(lines)
 
 
 def cmd_run(algo: str, log: str, out: str, config: str | None = None, seed: int = 0) -> dict:
@@ -78,7 +99,12 @@ def _dispatch(args) -> None:
             print(line)
     elif args.command == "fields":
         print(cmd_fields(args.algo, args.update), end="" if args.update is None else "\n")
+    elif args.explain:
+        print(cmd_explain(args.algo, args.log, args.config))
     else:
+        if not args.out:
+            from worlds.yamlio import InputError
+            raise InputError("run: --out is required (or --explain)")
         stats = cmd_run(args.algo, args.log, args.out, args.config, args.seed)
         if not args.quiet:
             print(f"{args.algo}: {stats['scans_processed']} scans in {stats['wall_time_s']:.2f} s "
