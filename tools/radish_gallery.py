@@ -4,7 +4,7 @@
                                            [--out docs/gallery] [--max-px 700] [--seed S]
 
 For each log whose timestamps are usable (LOGS below) and each algorithm, imports the log
-(sim.logs.carmen), runs the algorithm with slam/configs/radish_<algo>.yaml, writes
+(sim.logs.carmen), runs the algorithm with its defaults (derived from the log), writes
 OUT/<log>_<algo>.png (the map, unknown grey, with the trajectory; at most --max-px pixels a
 side, a small PNG) and scores the map with metrics.gtfree (occupied and free fractions,
 corners, enclosed areas; Filatov et al. 2017: a blurred or doubled map has more of them).
@@ -29,7 +29,6 @@ from sim.logs import import_log  # noqa: E402
 from worlds.yamlio import InputError  # noqa: E402
 
 DEFAULT_DATA = ROOT.parent / "shared" / "data" / "radish"
-CONFIGS = ROOT / "slam" / "configs"
 # name -> file under DATA; the logs whose timestamps survive import (see the data README)
 LOGS = {
     "intel": "corrected/intel-corrected.log.gz",
@@ -97,8 +96,7 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--data", default=str(DEFAULT_DATA))
     ap.add_argument("--logs", default=",".join(LOGS), help=f"comma-separated, from: {', '.join(LOGS)}")
-    ap.add_argument("--algo", default=None, help="comma-separated (default: every registered "
-                                                 "algorithm with a radish_<algo>.yaml)")
+    ap.add_argument("--algo", default=None, help="comma-separated (default gn,graph,pf)")
     ap.add_argument("--out", default=str(ROOT / "docs" / "gallery"))
     ap.add_argument("--max-px", type=int, default=700)
     ap.add_argument("--seed", type=int, default=0)
@@ -116,11 +114,7 @@ def run(data: Path, logs: str, algos: str | None, out: Path, max_px: int, seed: 
     from slam.replay import run_algorithm
 
     known = algorithm_names()
-    if algos is None:
-        names = [p.stem[len("radish_"):] for p in sorted(CONFIGS.glob("radish_*.yaml"))]
-        names = [n for n in names if n in known]
-    else:
-        names = [a.strip() for a in algos.split(",") if a.strip()]
+    names = [a.strip() for a in (algos or "gn,graph,pf").split(",") if a.strip()]
     out.mkdir(parents=True, exist_ok=True)
     index = out / "gallery.json"
     rows = json.loads(index.read_text()) if index.exists() else []
@@ -133,7 +127,7 @@ def run(data: Path, logs: str, algos: str | None, out: Path, max_px: int, seed: 
                 print(f"{log_name} {name}: not registered, skipped", flush=True)
                 continue
             t0 = time.perf_counter()
-            result = run_algorithm(name, log, config=CONFIGS / f"radish_{name}.yaml", seed=seed)
+            result = run_algorithm(name, log, seed=seed)
             wall = time.perf_counter() - t0
             png = out / f"{log_name}_{name}.png"
             save_map_png(result.grid, result.poses, png,

@@ -40,15 +40,41 @@ def derive_graph_config(s: SensorFacts) -> list[Derived]:
         Derived(tb + "use_online_correlative_scan_matching", bool(sparse),
                 f"on when the log has no odometry or its scans are more than {SPARSE_STEP} m "
                 f"apart (median {s.scan_step:.3f} m): the prediction is then coarse"),
-        Derived(tb + "real_time_correlative_scan_matcher.linear_search_window",
-                _sig(max(0.1, 0.2 * s.scan_step)),
-                "0.1 m, or a fifth of the median odometry step between scans when larger"),
         Derived(tb + "motion_filter.max_angle_radians",
                 math.radians(0.1 * max(1.0, s.scan_rate / REFERENCE_RATE)),
                 f"0.1 degree at {REFERENCE_RATE:g} Hz, scaled with the scan rate "
                 f"({s.scan_rate:.1f} Hz) so a turn keeps as many nodes"),
     ]
     nodes = 90 if not sparse or s.scan_step <= 0 else max(30, min(90, round(30.0 / s.scan_step)))
+    thinned = s.odometry and s.scan_step > SPARSE_STEP
+    out.append(Derived(tb + "real_time_correlative_scan_matcher.linear_search_window",
+                       0.2 if thinned else 0.1,
+                       "0.1 m; 0.2 m on a thinned log, about the odometry error over a metre"))
+    if thinned:
+        # a log that kept one scan per metre or so (GMapping's .gfs, its linearUpdate) records a
+        # building-scale route with scans too far apart for the room-scale TurtleBot3 values:
+        # Cartographer's own values, and submaps coarse enough to match sparse far returns
+        why = (f"Cartographer's value on a thinned log (scans {s.scan_step:.2f} m apart by "
+               "odometry: a building-scale route)")
+        out += [Derived("pose_graph.constraint_builder.fast_correlative_scan_matcher."
+                        "linear_search_window", 7.0, why),
+                Derived("pose_graph.constraint_builder.min_score", 0.55, why),
+                Derived("pose_graph.optimization_problem.huber_scale", 10.0, why),
+                Derived("pose_graph.optimization_problem.max_loop_residual", 0.0,
+                        "keep every loop closure, as Cartographer, on a thinned log"),
+                Derived("pose_graph.optimization_problem.local_slam_pose_translation_weight",
+                        1e4, "the local-SLAM chain held less stiffly on a thinned log"),
+                Derived("pose_graph.optimization_problem.local_slam_pose_rotation_weight",
+                        1e4, "the local-SLAM chain held less stiffly on a thinned log"),
+                Derived(tb + "ceres_scan_matcher.translation_weight", 10.0, why),
+                Derived(tb + "randomized_voxel_filter", False,
+                        "a voxel keeps its first point on a thinned log"),
+                Derived(tb + "submaps.grid_type", "probability_grid", why),
+                Derived(tb + "submaps.resolution", 0.1,
+                        "0.1 m cells on a thinned log: scans a metre apart leave 5 cm submaps "
+                        "too sparse at range to match against"),
+                Derived(tb + "submaps.free_space_margin_sigmas", 0.0,
+                        "rays free space up to their hit on a thinned log")]
     out.append(Derived(tb + "submaps.num_range_data", int(nodes),
                        "90 scans (Cartographer's); from a thinned log, about 30 m of travel, at "
                        "least 30"))

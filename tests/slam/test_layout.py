@@ -162,14 +162,18 @@ def _owner(cls: type, dotted: str):
 
 def unused_config_fields() -> list[str]:
     """Fields that no code reads, and switches (bool or str fields) that take one value in every
-    default and shipped config (the other side of the switch is dead code)."""
+    default and shipped config and in what every sensor class derives (the other side of the
+    switch is dead code)."""
+    from slam.sensors import apply_derived
+    from tests.slam.sensor_classes import CLASSES
     read = _attributes_read()
     values: dict[tuple, set] = {}
     paths: dict[tuple, list] = {}
     for name, cls in registry.algorithms().items():
         if _package_of(cls.__module__) is None:
             continue
-        cfgs = [cls.config_class()]
+        cfgs = [cls.config_class()] + [apply_derived(cls.config_class(), cls.derive_config(f))
+                                       for f in CLASSES]
         for y in sorted((SLAM / "configs").glob("*.yaml")):
             try:
                 cfgs.append(registry.load_config(name, y))

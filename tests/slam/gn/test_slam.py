@@ -132,7 +132,7 @@ def test_degenerate_direction_keeps_the_constant_velocity_prediction(corridor_lo
 
 def test_normal_gradient_and_velocity_prior_change_the_track_and_are_validated(room_log):
     """Each of the two (not in hector) changes the track on its own, deterministically; stock
-    hector's and the Radish gallery's configs keep both off; a negative weight fails."""
+    hector's config keeps both off; a negative weight fails."""
     default = run_algorithm("gn", room_log)
     assert (default.config["gradient_along_normal"], default.config["velocity_prior_weight"]) == (True, 3.0)
     for change in ({"gradient_along_normal": False}, {"velocity_prior_weight": 0.0}):
@@ -140,7 +140,7 @@ def test_normal_gradient_and_velocity_prior_change_the_track_and_are_validated(r
         b = run_algorithm("gn", room_log, config=change)
         np.testing.assert_array_equal(a.poses, b.poses)
         assert not np.array_equal(a.poses, default.poses), change
-    for name in ("gn_hector", "radish_gn"):
+    for name in ("gn_hector",):
         cfg = load_config("gn", CONFIGS / f"{name}.yaml")
         assert (cfg.gradient_along_normal, cfg.velocity_prior_weight) == (False, 0.0), name
     with pytest.raises(InputError, match="velocity_prior_weight"):
