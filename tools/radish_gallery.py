@@ -127,9 +127,18 @@ def run(data: Path, logs: str, algos: str | None, out: Path, max_px: int, seed: 
                 print(f"{log_name} {name}: not registered, skipped", flush=True)
                 continue
             t0 = time.perf_counter()
-            result = run_algorithm(name, log, seed=seed)
-            wall = time.perf_counter() - t0
             png = out / f"{log_name}_{name}.png"
+            try:
+                result = run_algorithm(name, log, seed=seed)
+            except InputError as err:     # a lost algorithm is a result: a row with its reason
+                png.unlink(missing_ok=True)
+                row = {"log": log_name, "algo": name, "scans": int(log.n_scans),
+                       "duration_s": float(log.duration), "failed": str(err)}
+                rows = [r for r in rows if not (r["log"] == log_name and r["algo"] == name)] + [row]
+                print(f"{log_name} {name}: failed: {row['failed']}", flush=True)
+                index.write_text(json.dumps(rows, indent=1))
+                continue
+            wall = time.perf_counter() - t0
             save_map_png(result.grid, result.poses, png,
                          f"{log_name} - {name} ({log.n_scans} scans, {wall:.0f} s)", max_px)
             row = {"log": log_name, "algo": name, "scans": int(log.n_scans),
@@ -152,6 +161,10 @@ def format_gallery(rows: list[dict]) -> str:
     lines = ["| log | algorithm | scans | data (s) | wall (s) | × real time | occupied | free | "
              "corners | enclosed areas |", "|" + "---|" * 10]
     for r in rows:
+        if "failed" in r:
+            lines.append(f"| {r['log']} | {r['algo']} | {r['scans']} | {r['duration_s']:.0f} | "
+                         f"failed: {r['failed'][:120]} | | | | | |")
+            continue
         lines.append(f"| {r['log']} | {r['algo']} | {r['scans']} | {r['duration_s']:.0f} | "
                      f"{r['wall_time_s']:.1f} | {r['realtime_factor']:.0f} | "
                      f"{r['occupied_fraction']:.3f} | {r['free_fraction']:.3f} | {r['corners']} | "
@@ -159,8 +172,8 @@ def format_gallery(rows: list[dict]) -> str:
     lines += ["", "| log | " + " | ".join(algos) + " |", "|---|" + "---|" * len(algos)]
     by = {(r["log"], r["algo"]): r for r in rows}
     for lg in logs:
-        cells = [f"![{lg} {a}]({by[(lg, a)]['png']})" if (lg, a) in by else "-"
-                 for a in algos]
+        cells = [f"![{lg} {a}]({by[(lg, a)]['png']})" if "png" in by.get((lg, a), {}) else
+                 "failed" if (lg, a) in by else "-" for a in algos]
         lines.append(f"| {lg} | " + " | ".join(cells) + " |")
     return "\n".join(lines)
 
