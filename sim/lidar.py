@@ -21,6 +21,11 @@ from worlds.yamlio import InputError, from_dict, load_yaml
 __all__ = ["LidarConfig", "LDS01_NOISE", "lidar_names", "load_lidar", "DEFAULT_LIDAR", "beam_poses", "cast_scans", "apply_range_noise"]
 
 
+MAX_BEAMS = 10_000      # beams per scan (the catalogue's most: 1081)
+MAX_RATE = 200.0        # scans per second (the catalogue's most: 40)
+MAX_RANGE = 1000.0      # m
+MAX_BEAM_RATE = 100_000.0  # beams per second (the UTM-30LX: 43,240)
+
 # the ROBOTIS LDS-01 datasheet's range noise (sim/lidars/lds-01.yaml gives the sources)
 LDS01_NOISE = LidarNoise(drop_prob=0.01, bands=((0.5, 0.015, 0.0), (3.5, 0.0, 0.05)))
 
@@ -50,10 +55,16 @@ class LidarConfig:
     motion_distortion: bool = True
 
     def __post_init__(self):
-        if self.beams < 1:
-            raise ValueError("beams must be >= 1")
-        if self.rate <= 0:
-            raise ValueError("rate must be > 0")
+        # a lidar file from a stranger cannot make a recording of billions of beams
+        if not 1 <= self.beams <= MAX_BEAMS:
+            raise ValueError(f"beams must be from 1 to {MAX_BEAMS:,}, got {self.beams}")
+        if not 0 < self.rate <= MAX_RATE:
+            raise ValueError(f"rate must be > 0 and at most {MAX_RATE:g} Hz, got {self.rate}")
+        if self.beams * self.rate > MAX_BEAM_RATE:
+            raise ValueError(f"beams x rate must be at most {MAX_BEAM_RATE:,.0f} beams per second, "
+                             f"got {self.beams * self.rate:,.0f}")
+        if self.range_max > MAX_RANGE:
+            raise ValueError(f"range_max must be at most {MAX_RANGE:g} m, got {self.range_max}")
         if not 0 <= self.range_min < self.range_max:
             raise ValueError("need 0 <= range_min < range_max")
         if self.range_resolution < 0:

@@ -71,6 +71,10 @@ def test_a_lidar_file_keeps_the_recording_mount_unless_it_sets_one(tmp_path):
     ("fov: 270\n", r"mine.yaml: fov: unknown key"),
     ("noise: {bands: [[5, 0.01, 0], [2, 0.01, 0]]}\n", r"mine.yaml: noise: bands\[1\]: up_to 2.0"),
     ("- 1\n", r"mine.yaml: top level: expected a mapping"),
+    ("beams: 1000000000\n", r"beams must be from 1 to 10,000"),
+    ("rate: 1.0e6\n", r"rate must be > 0 and at most 200 Hz"),
+    ("beams: 10000\nrate: 100\n", r"beams x rate must be at most 100,000 beams per second"),
+    ("range_max: 1.0e9\n", r"range_max must be at most 1000 m"),
 ])
 def test_bad_lidar_files_are_one_line_errors(tmp_path, text, match):
     p = tmp_path / "mine.yaml"
