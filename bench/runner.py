@@ -27,6 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
+from worlds.paths import check_name
 from worlds.yamlio import InputError
 from bench import cache
 from bench.executors import make_executor
@@ -118,10 +119,18 @@ def cross_lidars(world_map: dict, world_files: dict, lidars) -> tuple[dict, dict
     lidar part is the catalogue name, or a lidar file's stem."""
     if not lidars:
         return world_map, world_files, {k: None for k in world_map}
+    labels = {}
+    for lidar in lidars:
+        label = Path(lidar).stem if lidar.endswith((".yaml", ".yml")) else lidar
+        check_name(label, f"--lidar {lidar}", "the lidar's name in world keys")
+        if label in labels.values():
+            raise InputError(f"--lidar {lidar}: another lidar of the run is also named "
+                             f"'{label}'; rename one of the files")
+        labels[lidar] = label
     out, files, of = {}, {}, {}
     for key, w in world_map.items():
         for lidar in lidars:
-            k = f"{key}+{Path(lidar).stem if lidar.endswith(('.yaml', '.yml')) else lidar}"
+            k = f"{key}+{labels[lidar]}"
             out[k], files[k], of[k] = w, world_files[key], lidar
     return out, files, of
 

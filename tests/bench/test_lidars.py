@@ -57,3 +57,10 @@ def test_the_default_lidar_keeps_the_cache_key_and_another_changes_it():
     assert log_key(W(), 0, "realistic", "3", lidar=None) == base
     assert log_key(W(), 0, "realistic", "3", lidar="utm-30lx") != base
     assert log_key(W(), 0, "realistic", "3", lidar="utm-30lx") != log_key(W(), 0, "realistic", "3", lidar="tim571")
+
+
+def test_two_lidar_files_of_one_name_are_refused():
+    with pytest.raises(InputError, match=r"another lidar of the run is also named 'mine'"):
+        cross_lidars({"w": 1}, {"w": None}, ("/a/mine.yaml", "/b/mine.yaml"))
+    with pytest.raises(InputError, match=r"--lidar /a/my lidar.yaml: .*holds characters"):
+        cross_lidars({"w": 1}, {"w": None}, ("/a/my lidar.yaml",))
