@@ -20,6 +20,7 @@ from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
 
+import numpy as np
 
 from sim.logs.range_model import accuracy_bands, check_bands, range_sigma
 from worlds.yamlio import InputError, from_dict, load_yaml, to_dict

@@ -3,7 +3,6 @@ LDS-01 log resolves to the config classes' defaults; other sensor classes get wh
 ranges, beams, rates and noise mean; a value set in a config wins; `slam run --explain`."""
 import math
 
-import numpy as np
 import pytest
 
 from slam.gn.defaults import derive_gn_config
