@@ -20,7 +20,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from worlds.paths import check_name, is_name
+from worlds.paths import check_name, is_name, names_a_file
 from worlds.yamlio import InputError, set_override, short, to_dict
 from slam.registry import ENTRY_POINT_GROUP
 
@@ -230,7 +230,7 @@ def parse_worlds(text: str) -> list[str]:
     seen = []
     for it in items:
         p = Path(it).expanduser()
-        if p.suffix.lower() in (".yaml", ".yml") or "/" in it:
+        if names_a_file(it):
             it = str(p.resolve())  # absolute, so --resume works from any folder
         if it not in seen:
             seen.append(it)

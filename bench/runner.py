@@ -27,7 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
-from worlds.paths import check_name
+from worlds.paths import check_name, names_a_file
 from worlds.yamlio import InputError
 from bench import cache
 from bench.executors import make_executor
@@ -121,7 +121,7 @@ def cross_lidars(world_map: dict, world_files: dict, lidars) -> tuple[dict, dict
         return world_map, world_files, {k: None for k in world_map}
     labels = {}
     for lidar in lidars:
-        label = Path(lidar).stem if lidar.endswith((".yaml", ".yml")) else lidar
+        label = Path(lidar).stem if names_a_file(lidar) else lidar
         check_name(label, f"--lidar {lidar}", "the lidar's name in world keys")
         if label in labels.values():
             raise InputError(f"--lidar {lidar}: another lidar of the run is also named "

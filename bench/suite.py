@@ -26,7 +26,7 @@ from pathlib import Path
 from typing import Any
 
 from bench.plan import MAX_DRAWS
-from worlds.paths import check_name
+from worlds.paths import check_name, names_a_file
 from worlds.yamlio import InputError, _suggest, atomic_write_text, load_yaml, short
 
 __all__ = ["Suite", "load_suite", "list_suites", "suite_dir", "DEFAULT_DRAWS"]
@@ -67,7 +67,7 @@ def load_suite(name_or_path: str) -> Suite:
     and the field for anything wrong, including a world that does not exist."""
     s = str(name_or_path)
     p = Path(s).expanduser()
-    if p.suffix.lower() not in (".yaml", ".yml") and "/" not in s:
+    if not names_a_file(s):
         p = suite_dir() / f"{s}.yaml"
         if not p.is_file():
             raise InputError(f"--suite {s}: no such suite (shipped: {', '.join(list_suites())}; "
@@ -126,7 +126,7 @@ def _lidars(value: Any, where: str, base: Path) -> tuple[str, ...]:
         if not isinstance(item, str) or not item.strip():
             raise InputError(f"{where}: {field}: expected a lidar name or a .yaml path, got {short(item)}")
         item = item.strip()
-        if Path(item).suffix.lower() in (".yaml", ".yml") or "/" in item:
+        if names_a_file(item):
             item = str((base / Path(item).expanduser()).resolve())
         else:
             check_name(item, where, field)
@@ -146,7 +146,7 @@ def _world(item: Any, where: str, field: str, base: Path) -> str:
         raise InputError(f"{where}: {field}: expected a world name, a .yaml path or "
                          f"{{generate: KIND, seed: S}}, got {short(item)}")
     item = item.strip()
-    if Path(item).suffix.lower() in (".yaml", ".yml") or "/" in item:
+    if names_a_file(item):
         p = (base / Path(item).expanduser()).resolve()
         if not p.is_file():
             raise InputError(f"{where}: {field}: world file {p} not found")

@@ -16,6 +16,7 @@ import numpy as np
 
 from sim._raycast import cast_rays_indexed, segment_grid
 from sim.noise import LidarNoise
+from worlds.paths import names_a_file
 from worlds.yamlio import InputError, from_dict, load_yaml
 
 __all__ = ["LidarConfig", "LDS01_NOISE", "lidar_names", "load_lidar", "DEFAULT_LIDAR", "beam_poses", "cast_scans", "apply_range_noise"]
@@ -151,7 +152,7 @@ def load_lidar(lidar: "str | Path | LidarConfig", mounted_as: LidarConfig | None
     if isinstance(lidar, LidarConfig):
         return lidar
     text = str(lidar)
-    if text.endswith((".yaml", ".yml")) or "/" in text or "\\" in text:
+    if names_a_file(text):
         path = Path(text)
     else:
         names = lidar_names()

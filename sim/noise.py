@@ -23,6 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from sim.logs.range_model import accuracy_bands, check_bands, range_sigma
+from worlds.paths import names_a_file
 from worlds.yamlio import InputError, from_dict, load_yaml, to_dict
 
 __all__ = ["LidarNoise", "WheelNoise", "ImuAxisNoise", "ImuNoise", "NoiseProfile",
@@ -145,8 +146,7 @@ def load_profile(noise: "str | Path | NoiseProfile") -> NoiseProfile:
     if isinstance(noise, NoiseProfile):
         return noise
     text = str(noise)
-    looks_like_path = text.endswith((".yaml", ".yml")) or "/" in text or "\\" in text
-    if not looks_like_path:
+    if not names_a_file(text):
         names = profile_names()
         if text not in names:
             raise InputError(f"unknown noise profile {text!r} (known: {', '.join(names)}; "

@@ -20,7 +20,7 @@ from shapely.geometry import Point
 
 from worlds.limits import MAX_COORDINATE, check_coordinates
 from worlds.model import ROBOT_RADIUS, Wall, World, make_obstacle
-from worlds.paths import check_name
+from worlds.paths import check_name, names_a_file
 from worlds.yamlio import InputError, _suggest, load_yaml, short
 
 __all__ = ["load_world", "list_worlds", "world_from_dict", "world_dir", "reachable_region",
@@ -53,7 +53,7 @@ def load_world(name_or_path: str | os.PathLike) -> World:
     """
     s = str(name_or_path)
     p = Path(s)
-    if p.suffix.lower() in (".yaml", ".yml") or os.sep in s or "/" in s:
+    if names_a_file(s):
         where = s
     else:
         p = world_dir() / f"{s}.yaml"

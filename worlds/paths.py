@@ -13,7 +13,7 @@ from pathlib import Path
 
 from worlds.yamlio import InputError, short
 
-__all__ = ["MAX_NAME_LENGTH", "check_name", "is_name", "path_inside"]
+__all__ = ["MAX_NAME_LENGTH", "check_name", "is_name", "names_a_file", "path_inside"]
 
 MAX_NAME_LENGTH = 100
 _NAME = re.compile(r"[A-Za-z0-9_+\-][A-Za-z0-9_.+\-]*")
@@ -23,6 +23,14 @@ def is_name(value: object) -> bool:
     """True when `value` is a string that may become part of a path (see the module doc)."""
     return (isinstance(value, str) and len(value) <= MAX_NAME_LENGTH
             and _NAME.fullmatch(value) is not None)
+
+
+def names_a_file(text: str) -> bool:
+    """True when `text`, where a shipped name or a file may be given (a world, a suite, a noise
+    profile, a lidar), is a file: it ends in .yaml or .yml or holds a path separator."""
+    text = str(text)
+    return (Path(text).suffix.lower() in (".yaml", ".yml") or "/" in text or "\\" in text
+            or os.sep in text)
 
 
 def check_name(value: object, where: str, field: str) -> str:
