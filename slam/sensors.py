@@ -9,7 +9,6 @@ the log's meta.
 """
 from __future__ import annotations
 
-import dataclasses
 import math
 from dataclasses import dataclass
 from typing import Any
@@ -19,6 +18,7 @@ import numpy as np
 from sim.logs import SensorLog
 from slam.pose import interpolate_poses
 from slam.range_noise import RangeNoise, range_noise_from_meta
+from worlds.yamlio import from_dict
 
 __all__ = ["SensorFacts", "Derived", "sensor_facts", "apply_derived", "noise_smoothing_beams"]
 
@@ -114,14 +114,13 @@ def noise_smoothing_beams(facts: SensorFacts, cell: float, at_range: float = 2.0
 
 
 def apply_derived(config: Any, derived: list[Derived]) -> Any:
-    """`config` (a dataclass) with each derived value set at its dotted path."""
+    """`config` (a dataclass) with each derived value set at its dotted path, checked as a
+    config file's value is (worlds.yamlio.from_dict)."""
+    data: dict = {}
     for d in derived:
-        config = _set_path(config, d.path.split("."), d.value)
-    return config
-
-
-def _set_path(obj: Any, parts: list[str], value: Any) -> Any:
-    if len(parts) == 1:
-        return dataclasses.replace(obj, **{parts[0]: value})
-    inner = getattr(obj, parts[0])
-    return dataclasses.replace(obj, **{parts[0]: _set_path(inner, parts[1:], value)})
+        *parents, leaf = d.path.split(".")
+        level = data
+        for part in parents:
+            level = level.setdefault(part, {})
+        level[leaf] = d.value
+    return from_dict(type(config), data, where="<derived from the log>", base=config)
