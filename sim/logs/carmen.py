@@ -293,6 +293,13 @@ def _count_field(acc: _Accumulator, tok: str, lineno: int, name: str) -> int:
     return n
 
 
+def _reading_count(acc: _Accumulator, tokens: list[str], lineno: int) -> int:
+    """The number of readings a FLASER or LASER_READING line declares after its name."""
+    if len(tokens) < 2:
+        raise acc.error(lineno, f"{tokens[0]}: missing the number of readings")
+    return _count_field(acc, tokens[1], lineno, f"{tokens[0]} num_readings")
+
+
 def _need(acc: _Accumulator, tokens: list[str], lineno: int, want: int, layout: str) -> None:
     if len(tokens) != want:
         raise acc.error(lineno, f"{tokens[0]}: expected {want} fields ({layout}), got {len(tokens)}")
@@ -301,9 +308,7 @@ def _need(acc: _Accumulator, tokens: list[str], lineno: int, want: int, layout: 
 def _parse_carmen_line(acc: _Accumulator, tokens: list[str], lineno: int) -> None:
     kind = tokens[0]
     if kind == "FLASER":
-        if len(tokens) < 2:
-            raise acc.error(lineno, "FLASER: missing the number of readings")
-        n = _count_field(acc, tokens[1], lineno, "FLASER num_readings")
+        n = _reading_count(acc, tokens, lineno)
         _need(acc, tokens, lineno, 2 + n + 9,
               f"FLASER {n} readings, laser pose, odometry pose, ipc_timestamp host logger_timestamp")
         vals = _floats(acc, tokens[2:2 + n + 7], lineno)
@@ -360,9 +365,7 @@ def _parse_laser1(acc: _Accumulator, tokens: list[str], lineno: int, with_pose: 
 def _parse_gfs_line(acc: _Accumulator, tokens: list[str], lineno: int) -> None:
     kind = tokens[0]
     if kind == "LASER_READING":
-        if len(tokens) < 2:
-            raise acc.error(lineno, "LASER_READING: missing the number of readings")
-        n = _count_field(acc, tokens[1], lineno, "LASER_READING num_readings")
+        n = _reading_count(acc, tokens, lineno)
         _need(acc, tokens, lineno, 2 + n + 4, f"LASER_READING {n} readings, x y theta, timestamp")
         vals = _floats(acc, tokens[2:], lineno)
         acc.add_scan(lineno, float(vals[n + 3]), vals[:n], default_angles(n),
