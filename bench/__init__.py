@@ -7,6 +7,8 @@ Python API (each is what a `python -m bench` command calls):
   write_report(out_dir) -> Path of summary.md
   add_outside(out_dir, world, algo, map_yaml, trajectory=None, draw=0) -> row (bench.add)
   regress(baseline=None, update=False, ...) -> exit code
+  bench.tune.tune(TuneSpec(algo=..., suite=..., holdout=...), out_dir, ...) -> TuneOutcome
+    (`bench tune`: a config searched with Optuna on a dev suite, judged on a hold-out suite)
 """
 from bench.plan import RunSpec, Task
 from bench.regress import regress

@@ -1,4 +1,5 @@
-"""python -m bench run | add | merge | report | regress | speed  (a thin CLI over bench's Python API)."""
+"""python -m bench run | tune | add | merge | report | regress | speed  (a thin CLI over bench's
+Python API)."""
 from __future__ import annotations
 
 import argparse
@@ -14,6 +15,7 @@ def build_parser() -> argparse.ArgumentParser:
     sub = p.add_subparsers(dest="command", required=True)
 
     _add_run_command(sub)
+    _add_tune_command(sub)
 
     m = sub.add_parser("merge", help="join the shards of one run (bench run --shard K/N) into one run")
     m.add_argument("dirs", nargs="+", metavar="DIR", help="shard folders")
@@ -90,6 +92,30 @@ def _add_run_command(sub) -> None:
     r.add_argument("--no-figures", action="store_true", help="tables only")
 
 
+def _add_tune_command(sub) -> None:
+    t = sub.add_parser("tune", help="search an algorithm's config with Optuna on a dev suite, "
+                                    "then run the best beside the defaults on a hold-out suite")
+    t.add_argument("--algo", help="the algorithm to tune (one)")
+    t.add_argument("--suite", metavar="DEV", help="the dev suite (a shipped name or a suite YAML) "
+                                                  "the trials run on")
+    t.add_argument("--holdout", metavar="HOLD", help="a suite not looked at while choosing: the "
+                                                     "best config and the defaults both run on it")
+    t.add_argument("--space", metavar="SPACE.yaml",
+                   help="the search space (default: the algorithm's shipped space)")
+    t.add_argument("--trials", type=positive_int, help="trials (default 40)")
+    t.add_argument("--objective", choices=["f1", "ate"],
+                   help="mean map F1 (surface form; default) or mean ATE over the suite's runs")
+    t.add_argument("--seed", type=non_negative_int, help="the sampler's seed (default 0)")
+    t.add_argument("--jobs", type=positive_int, default=None,
+                   help="worker processes a trial's runs share (default: all cores)")
+    t.add_argument("--scheduler", metavar="ADDRESS",
+                   help="Dask scheduler address for the trials' runs; needs .[dask]")
+    t.add_argument("--out", help="the tune's folder (default runs/tune-<UTC timestamp>)")
+    t.add_argument("--resume", metavar="DIR", help="go on with the tune in DIR (--trials may "
+                                                   "raise its count)")
+    t.add_argument("--no-progress", action="store_true", help="no progress output")
+
+
 def _add_add_command(sub) -> None:
     a = sub.add_parser("add", help="score a map (and trajectory) made elsewhere, e.g. by a ROS "
                                    "SLAM, into a run's results and report")
@@ -137,6 +163,61 @@ def cmd_run(args, argv) -> int:
     md = write_report(out_dir, figures=not args.no_figures)
     print(f"report: {md}")
     return 0
+
+
+def cmd_tune(args) -> int:
+    from bench.rundir import default_out_dir
+    from bench.tune import TuneSpec, read_tune, tune
+    if args.resume and args.out and Path(args.out) != Path(args.resume):
+        raise InputError("give either --resume DIR or --out DIR, not both")
+    if args.resume:
+        out_dir = check_out_dir(args.resume, "--resume")
+        base = read_tune(out_dir)
+        given = {"algo": args.algo, "suite": args.suite, "holdout": args.holdout,
+                 "space": args.space, "objective": args.objective, "seed": args.seed}
+        if any(v is not None for v in given.values()):
+            raise InputError("--resume takes the tune's arguments from its tune.json; give "
+                             "--trials at most")
+        spec = TuneSpec(**{**base.__dict__, "trials": args.trials or base.trials})
+    else:
+        if not args.algo or not args.suite:
+            raise InputError("tune: --algo and --suite are required")
+        from bench.plan import resolve_algos
+        algos = resolve_algos(args.algo)
+        if len(algos) != 1:
+            raise InputError(f"--algo {args.algo}: tune one algorithm at a time")
+        stamp = default_out_dir()
+        out_dir = check_out_dir(args.out or stamp.with_name("tune-" + stamp.name))
+        spec = TuneSpec(algo=algos[0], suite=_suite_ref(args.suite, "--suite"),
+                        holdout=_suite_ref(args.holdout, "--holdout") if args.holdout else "",
+                        space=str(Path(args.space).resolve()) if args.space else "",
+                        trials=args.trials or 40, objective=args.objective or "f1",
+                        seed=args.seed or 0)
+    outcome = tune(spec, out_dir, jobs=args.jobs, scheduler=args.scheduler,
+                   resume=bool(args.resume), progress=not args.no_progress)
+    head = (f"{outcome.complete} complete, {outcome.pruned} pruned, {outcome.failed} failed "
+            f"trials in {out_dir}")
+    if outcome.interrupted:
+        print(f"interrupted: {head}; go on with: python -m bench tune --resume {out_dir}",
+              file=sys.stderr)
+        return 130
+    best = ("no complete trial" if outcome.best_number is None else
+            f"best: trial {outcome.best_number}, {outcome.best_value:.5g} ({out_dir / 'best.yaml'})")
+    print(f"{head}; {best}")
+    return 0
+
+
+def _suite_ref(text: str, flag: str) -> str:
+    """A suite argument as the tune keeps it: a shipped name, or the file's absolute path;
+    InputError naming the flag when it does not load."""
+    from bench.suite import load_suite
+    from worlds.paths import names_a_file
+    try:
+        load_suite(text)
+    except InputError as err:
+        msg = str(err)
+        raise InputError(msg if msg.startswith(flag) else f"{flag} {text}: {msg}") from None
+    return str(Path(text).resolve()) if names_a_file(text) else text
 
 
 def cmd_report(args) -> int:
@@ -206,7 +287,8 @@ def parse_shard_flag(text: str):
 
 def main(argv: list[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
-    commands = {"run": lambda args: cmd_run(args, argv), "report": cmd_report, "add": cmd_add,
+    commands = {"run": lambda args: cmd_run(args, argv), "tune": cmd_tune, "report": cmd_report,
+                "add": cmd_add,
                 "regress": cmd_regress, "merge": cmd_merge, "speed": cmd_speed}
     return run_cli(build_parser, lambda args: commands[args.command](args), argv)
 

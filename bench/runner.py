@@ -52,10 +52,12 @@ class RunOutcome:
     failed: int
     interrupted: bool = False
     crashed: str | None = None
+    stopped: bool = False   # on_row asked the run to stop (bench tune prunes a trial)
 
     @property
     def complete(self) -> bool:
-        return self.ok + self.failed == self.total and not self.interrupted and not self.crashed
+        return (self.ok + self.failed == self.total and not self.interrupted and not self.crashed
+                and not self.stopped)
 
 
 @dataclass
@@ -169,12 +171,13 @@ def _check_inputs(spec: RunSpec):
 
 def run_benchmark(spec: RunSpec, out_dir: str | Path, jobs: int | None = None,
                   scheduler: str | None = None, resume: bool = False, progress: bool = True,
-                  argv: list[str] | None = None, stream=None) -> RunOutcome:
+                  argv: list[str] | None = None, stream=None, on_row=None) -> RunOutcome:
     """Run (or, with resume=True, complete) the benchmark `spec` into `out_dir`.
 
     jobs: worker processes (default: all cores; 1 runs in this process); scheduler: a Dask
-    scheduler address ('local' for a LocalCluster). Returns a RunOutcome; user errors raise
-    InputError before any work starts.
+    scheduler address ('local' for a LocalCluster); on_row: called with each row once it is
+    stored, and a true return stops the run (its pending jobs cancelled, outcome.stopped).
+    Returns a RunOutcome; user errors raise InputError before any work starts.
     """
     out_dir = Path(out_dir)
     with run_lock(out_dir):
@@ -188,7 +191,7 @@ def run_benchmark(spec: RunSpec, out_dir: str | Path, jobs: int | None = None,
             bar.close()
             return outcome
         return Scheduler(plan, store, bar, outcome, make_executor(jobs, scheduler),
-                         remote=scheduler is not None).run()
+                         remote=scheduler is not None, on_row=on_row).run()
 
 
 def _open_run(spec: RunSpec, out_dir: Path, resume: bool, argv) -> tuple[dict, dict, dict]:
@@ -275,8 +278,9 @@ class Scheduler:
     """
 
     def __init__(self, plan: RunPlan, store: ResultStore, bar: Progress, outcome: RunOutcome,
-                 ex, remote: bool = False):
+                 ex, remote: bool = False, on_row=None):
         self.plan, self.spec, self.store = plan, plan.spec, store
+        self.on_row = on_row
         self.bar, self.outcome = bar, outcome
         self.ex, self.remote = ex, remote
         self.pending: dict = {}   # future -> (event method, what it finished)
@@ -302,6 +306,8 @@ class Scheduler:
                 for fut in done:
                     event, what = self.pending.pop(fut)
                     event(fut, what)
+        except _StopRun:
+            self.outcome.stopped = True
         except KeyboardInterrupt:
             self.outcome.interrupted = True
         except BrokenProcessPool as err:
@@ -360,6 +366,7 @@ class Scheduler:
             self.store.add(row)
             self.outcome.failed += 1
             self.bar.advance(t.label + f" ({problem[:50]})", False)
+            self._stored(row)
 
     def _world(self, key: str):
         if key not in self.shared:
@@ -385,6 +392,15 @@ class Scheduler:
         self.outcome.ok += ok
         self.outcome.failed += not ok
         self.bar.advance(task.label + ("" if ok else f" ({str(row['error'])[:50]})"), ok)
+        self._stored(row)
+
+    def _stored(self, row: dict) -> None:
+        if self.on_row is not None and self.on_row(row):
+            raise _StopRun
+
+
+class _StopRun(Exception):
+    """on_row asked the run to stop."""
 
 
 def _read(path):

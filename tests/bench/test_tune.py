@@ -1,0 +1,179 @@
+"""bench tune: search spaces checked against the configs, trials on a tiny suite, pruning,
+an interrupted tune resuming to the same best trial, and the CLI's one-line errors."""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from worlds.yamlio import InputError
+from bench.__main__ import main
+from bench.plan import load_config_checked
+from bench.tune import TuneSpec, load_space, tune
+from tests.bench.fakes import INTERRUPT
+
+TINY = str(Path(__file__).with_name("tiny_world.yaml"))
+
+
+def _suite(tmp_path: Path, name: str, worlds: int = 1, draws: int = 2) -> str:
+    """A suite of `worlds` copies of the tiny world (named tiny0, tiny1, ...)."""
+    text = Path(TINY).read_text()
+    files = []
+    for k in range(worlds):
+        f = tmp_path / f"tiny{k}.yaml"
+        f.write_text(text.replace("name: tiny", f"name: tiny{k}", 1))
+        files.append(str(f))
+    path = tmp_path / f"{name}.yaml"
+    lines = [f"name: {name}", f"draws: {draws}", "worlds:"] + [f"  - {f}" for f in files]
+    path.write_text("\n".join(lines) + "\n")
+    return str(path)
+
+
+def _space(tmp_path: Path, text: str, name: str = "space.yaml") -> str:
+    path = tmp_path / name
+    path.write_text(text)
+    return str(path)
+
+
+NOISE_SPACE = "params:\n  pose_noise_m: {low: 0.001, high: 0.05, log: true}\n"
+
+
+@pytest.mark.parametrize("text, message", [
+    ("params:\n  particle: {low: 10, high: 50}\n", "params.particle: not a config field of pf (did you mean 'particles'?)"),
+    ("params:\n  particles: {low: 50, high: 10}\n", "params.particles: low (50) must be below high (10)"),
+    ("params:\n  particles: {low: 10.5, high: 50}\n", "params.particles.low: the field is an integer"),
+    ("params:\n  motion.srr: {low: 0, high: 0.3, log: true}\n", "params.motion.srr: a log-scale range needs low > 0"),
+    ("params:\n  motion.srr: {low: 0.1}\n", "params.motion.srr.high: missing"),
+    ("params:\n  motion.srr: {low: 0.1, high: 0.2, scale: log}\n", "params.motion.srr.scale: unknown key"),
+    ("params:\n  particles: {choices: [10, x]}\n", "params.particles: 'x' is refused"),
+    ("params:\n  resample_threshold: {low: 0.1, high: 2.0}\n", "params.resample_threshold: 2.0 is refused: resample_threshold must lie in [0, 1]"),
+    ("params: []\n", "params: expected a mapping of config fields"),
+    ("algo: graph\nparams:\n  particles: {low: 10, high: 50}\n", "algo: the space is written for 'graph'"),
+    ("parms:\n  particles: {low: 10, high: 50}\n", "parms: unknown key (did you mean 'params'?)"),
+])
+def test_a_bad_space_names_its_file_and_field(tmp_path, text, message):
+    path = _space(tmp_path, text)
+    with pytest.raises(InputError) as err:
+        load_space(path, "pf")
+    assert str(err.value).startswith(f"{path}: ")
+    assert message in str(err.value)
+    assert "\n" not in str(err.value)
+
+
+@pytest.mark.parametrize("algo", ["graph", "pf", "gn"])
+def test_every_shipped_space_loads_and_its_bounds_are_valid_configs(algo):
+    space = load_space(None, algo)
+    assert len(space.params) >= 5
+    for p in space.params:
+        for v in ((p.low, p.high) if p.kind != "choice" else p.choices):
+            over: dict = {}
+            d = over
+            parts = p.path.split(".")
+            for part in parts[:-1]:
+                d = d.setdefault(part, {})
+            d[parts[-1]] = v
+            load_config_checked(algo, None, over)
+
+
+def test_a_tune_finds_a_better_config_and_judges_it_on_the_holdout(tmp_path):
+    out = tmp_path / "tune"
+    spec = TuneSpec(algo="fake_map", suite=_suite(tmp_path, "dev"),
+                    holdout=_suite(tmp_path, "hold", draws=1),
+                    space=_space(tmp_path, NOISE_SPACE), trials=6, objective="ate")
+    outcome = tune(spec, out, jobs=1, progress=False)
+    assert outcome.complete == 6 and not outcome.interrupted
+    best = load_config_checked("fake_map", str(out / "best.yaml"))
+    assert best.pose_noise_m < 0.01           # the default's noise is beaten
+    summary = (out / "summary.md").read_text()
+    assert "### Hold-out suite" in summary and "### Dev suite" in summary
+    assert (out / "figures" / "objective.png").is_file()
+    assert (out / "holdout" / "best" / "results.json").is_file()
+    data = json.loads((out / "summary.json").read_text())
+    assert data["best_params"]["pose_noise_m"] == pytest.approx(best.pose_noise_m)
+
+
+def test_an_interrupted_tune_resumes_to_the_same_best_trial(tmp_path):
+    def spec(trials):
+        return TuneSpec(algo="fake_interrupt", suite=_suite(tmp_path, "dev", worlds=2, draws=1),
+                        space=_space(tmp_path, NOISE_SPACE), trials=trials, objective="ate")
+    whole = tune(spec(7), tmp_path / "whole", jobs=1, progress=False)
+    INTERRUPT.update(after=7, built=0)       # a Ctrl-C a few trials in, part way through one
+    try:
+        cut = tune(spec(7), tmp_path / "cut", jobs=1, progress=False)
+    finally:
+        INTERRUPT.update(after=None, built=0)
+    assert cut.interrupted
+    rest = tune(spec(7), tmp_path / "cut", jobs=1, progress=False, resume=True)
+    assert not rest.interrupted
+    assert (rest.best_number, rest.best_value) == (whole.best_number, whole.best_value)
+    assert ((tmp_path / "cut" / "best.yaml").read_text()
+            == (tmp_path / "whole" / "best.yaml").read_text())
+    # the interrupted trial kept its number and the rows it had finished
+    assert sorted(p.name for p in (tmp_path / "cut" / "trials").iterdir()) == [
+        f"{n:04d}" for n in range(7)]
+
+
+def test_the_pruner_stops_trials_that_start_worse(tmp_path):
+    spec = TuneSpec(algo="fake_map", suite=_suite(tmp_path, "dev", worlds=4, draws=1),
+                    space=_space(tmp_path, "params:\n  pose_noise_m: {low: 0.0005, high: 0.2, "
+                                           "log: true}\n"),
+                    trials=14, objective="ate")
+    outcome = tune(spec, tmp_path / "t", jobs=1, progress=False)
+    assert outcome.pruned >= 1
+    assert outcome.complete + outcome.pruned == 14
+    summary = (tmp_path / "t" / "summary.md").read_text()
+    assert "| pruned at world " in summary
+
+
+def test_a_trial_that_fails_where_the_defaults_ran_is_failed_not_averaged(tmp_path):
+    space = _space(tmp_path, "params:\n  pose_noise_m: {low: 0.001, high: 0.05}\n")
+    spec = TuneSpec(algo="fake_raise", suite=_suite(tmp_path, "dev", draws=1), space=space,
+                    trials=2, objective="ate")
+    # fake_raise fails under every config, the defaults too: nothing is left to tune on
+    with pytest.raises(InputError, match="every row failed under the defaults"):
+        tune(spec, tmp_path / "t", jobs=1, progress=False)
+
+
+def test_the_cli_tunes_graph_on_the_tiny_world_end_to_end(tmp_path, capsys):
+    dev = _suite(tmp_path, "dev", draws=1)
+    out = tmp_path / "g"
+    code = main(["tune", "--algo", "graph", "--suite", dev, "--holdout", dev, "--trials", "3",
+                 "--jobs", "1", "--out", str(out), "--no-progress"])
+    assert code == 0
+    assert "3 complete, 0 pruned, 0 failed trials" in capsys.readouterr().out
+    load_config_checked("graph", str(out / "best.yaml"))
+    assert "### Hold-out suite" in (out / "summary.md").read_text()
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--algo", "graph,pf", "--suite", "DEV"], "tune one algorithm at a time"),
+    (["--algo", "graph", "--suite", "nosuch"], "--suite nosuch: "),
+    (["--algo", "graph", "--suite", "DEV", "--holdout", "missing.yaml"], "--holdout missing.yaml: "),
+    (["--algo", "graph"], "--algo and --suite are required"),
+    (["--algo", "graph", "--suite", "DEV", "--space", "missing.yaml"], "missing.yaml"),
+])
+def test_cli_errors_are_one_line(tmp_path, capsys, args, message):
+    dev = _suite(tmp_path, "dev", draws=1)
+    args = [dev if a == "DEV" else a for a in args]
+    code = main(["tune", "--out", str(tmp_path / "t")] + args)
+    err = capsys.readouterr().err.strip()
+    assert code == 2
+    assert message in err and len(err.splitlines()) == 1
+
+
+def test_a_bad_suite_file_names_the_file_and_field(tmp_path, capsys):
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("name: bad\ndraws: 0\nworlds: [rectangle_s]\n")
+    code = main(["tune", "--algo", "graph", "--suite", str(bad), "--out", str(tmp_path / "t")])
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and str(bad) in err and "draws" in err and len(err.splitlines()) == 1
+
+
+def test_resume_refuses_other_arguments(tmp_path, capsys):
+    spec = TuneSpec(algo="fake_map", suite=_suite(tmp_path, "dev", draws=1),
+                    space=_space(tmp_path, NOISE_SPACE), trials=1, objective="ate")
+    tune(spec, tmp_path / "t", jobs=1, progress=False)
+    code = main(["tune", "--resume", str(tmp_path / "t"), "--objective", "f1"])
+    assert code == 2
+    assert "give --trials at most" in capsys.readouterr().err
