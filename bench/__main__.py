@@ -96,15 +96,17 @@ def _add_tune_command(sub) -> None:
     t = sub.add_parser("tune", help="search an algorithm's config with Optuna on a dev suite, "
                                     "then run the best beside the defaults on a hold-out suite")
     t.add_argument("--algo", help="the algorithm to tune (one)")
-    t.add_argument("--suite", metavar="DEV", help="the dev suite (a shipped name or a suite YAML) "
+    t.add_argument("--suite", metavar="DEV", help="the dev suite (a shipped name or a suite YAML; "
+                                                  "with --objective relations a log set YAML) "
                                                   "the trials run on")
     t.add_argument("--holdout", metavar="HOLD", help="a suite not looked at while choosing: the "
                                                      "best config and the defaults both run on it")
     t.add_argument("--space", metavar="SPACE.yaml",
                    help="the search space (default: the algorithm's shipped space)")
     t.add_argument("--trials", type=positive_int, help="trials (default 40)")
-    t.add_argument("--objective", choices=["f1", "ate"],
-                   help="mean map F1 (surface form; default) or mean ATE over the suite's runs")
+    t.add_argument("--objective", choices=["f1", "ate", "relations"],
+                   help="mean map F1 (surface form; default) or mean ATE over the suite's runs, "
+                        "or the mean relation error over a log set's logs")
     t.add_argument("--seed", type=non_negative_int, help="the sampler's seed (default 0)")
     t.add_argument("--jobs", type=positive_int, default=None,
                    help="worker processes a trial's runs share (default: all cores)")
@@ -188,8 +190,9 @@ def cmd_tune(args) -> int:
             raise InputError(f"--algo {args.algo}: tune one algorithm at a time")
         stamp = default_out_dir()
         out_dir = check_out_dir(args.out or stamp.with_name("tune-" + stamp.name))
-        spec = TuneSpec(algo=algos[0], suite=_suite_ref(args.suite, "--suite"),
-                        holdout=_suite_ref(args.holdout, "--holdout") if args.holdout else "",
+        logs = args.objective == "relations"
+        spec = TuneSpec(algo=algos[0], suite=_suite_ref(args.suite, "--suite", logs),
+                        holdout=_suite_ref(args.holdout, "--holdout", logs) if args.holdout else "",
                         space=str(Path(args.space).resolve()) if args.space else "",
                         trials=args.trials or 40, objective=args.objective or "f1",
                         seed=args.seed or 0)
@@ -207,12 +210,16 @@ def cmd_tune(args) -> int:
     return 0
 
 
-def _suite_ref(text: str, flag: str) -> str:
+def _suite_ref(text: str, flag: str, logs: bool = False) -> str:
     """A suite argument as the tune keeps it: a shipped name, or the file's absolute path;
-    InputError naming the flag when it does not load."""
+    InputError naming the flag when it does not load. logs: it is a log set (objective
+    relations)."""
     from bench.suite import load_suite
+    from bench.tune.logset import load_logset
     from worlds.paths import names_a_file
     try:
+        if logs:
+            return load_logset(text).source
         load_suite(text)
     except InputError as err:
         msg = str(err)

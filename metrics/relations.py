@@ -36,7 +36,7 @@ from worlds.yamlio import InputError
 from sim.logs.tum import read_number_rows
 from slam.pose import compose, interpolate_poses, inverse, wrap_angle
 
-__all__ = ["Relations", "read_relations", "lookup_poses", "relation_errors", "relations_error",
+__all__ = ["Relations", "read_relations", "write_relations", "lookup_poses", "relation_errors", "relations_error",
            "relations_from_files", "add_relations_arguments", "relations_main", "format_relations",
            "LOOKUPS", "STAT_KEYS"]
 
@@ -82,6 +82,14 @@ def read_relations(path: str | os.PathLike) -> Relations:
         raise InputError(f"{p}: line {linenos[i]}: roll/pitch {a[i, 5]}, {a[i, 6]} not zero "
                          "(a 2D metric needs planar relations)")
     return Relations(a[:, 0], a[:, 1], a[:, [2, 3, 7]])
+
+
+def write_relations(path: str | os.PathLike, relations: Relations) -> None:
+    """Write `relations` as a relations text file (what read_relations reads), atomically."""
+    from worlds.yamlio import atomic_write_text
+    lines = [f"{a:.6f} {b:.6f} {d[0]:.9g} {d[1]:.9g} 0 0 0 {d[2]:.9g}"
+             for a, b, d in zip(relations.t1, relations.t2, relations.delta)]
+    atomic_write_text(path, "\n".join(lines) + "\n")
 
 
 def _check_trajectory(times, poses, what: str) -> tuple[np.ndarray, np.ndarray]:

@@ -2,6 +2,8 @@
 
     python tools/csail.py [--data DIR] [--algo graph,pf,gn] [--config ALGO=FILE ...] [--out DIR]
                           [--seed S]
+    python tools/csail.py --logset FILE [--data DIR]   # a log set naming the log and its
+                                                       # relations (bench tune --objective relations)
 
 Reads DIR/csail.corrected.gfs (406 raw scans, raw odometry at all 1988 scan times) and
 DIR/mit-csail.relations, runs each algorithm with its defaults (what it derives from the log;
@@ -24,7 +26,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from metrics.relations import STAT_KEYS, read_relations, relations_error  # noqa: E402
+from metrics.relations import read_relations, relations_error  # noqa: E402
 from sim.logs import import_log  # noqa: E402
 from worlds.jsonio import dumps  # noqa: E402
 from worlds.yamlio import InputError  # noqa: E402
@@ -80,6 +82,20 @@ def format_table(rows: list[dict], duration: float) -> str:
     return "\n".join(lines)
 
 
+def write_logset(path: Path, data: Path) -> int:
+    """A log set (bench.tune.logset) of the CSAIL log and its relations, by absolute path."""
+    from worlds.yamlio import atomic_write_text, dump_yaml
+    log, rel = (data / "csail.corrected.gfs").resolve(), (data / "mit-csail.relations").resolve()
+    for f in (log, rel):
+        if not f.is_file():
+            raise InputError(f"--data {data}: {f.name}: file not found")
+    atomic_write_text(path, dump_yaml({"name": "csail", "description": "MIT CSAIL, raw odometry",
+                                       "logs": [{"log": str(log), "relations": str(rel),
+                                                 "name": "csail"}]}))
+    print(f"log set: {path}")
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--data", default=str(DEFAULT_DATA), help="folder with the Radish files")
@@ -89,8 +105,12 @@ def main(argv: list[str] | None = None) -> int:
                     help="run ALGO with the config FILE instead of its defaults (repeatable)")
     ap.add_argument("--out", default="csail_bench", help="output folder")
     ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--logset", type=Path, metavar="FILE",
+                    help="write a log set YAML naming the CSAIL log and its relations; run nothing")
     args = ap.parse_args(argv)
     try:
+        if args.logset:
+            return write_logset(args.logset, Path(args.data))
         configs = dict(c.split("=", 1) for c in args.config if "=" in c)
         if len(configs) != len(args.config):
             raise InputError(f"--config: expected ALGO=FILE, got {args.config}")

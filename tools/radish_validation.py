@@ -2,6 +2,9 @@
 
     python tools/radish_validation.py [--algo graph] [--config YAML] [--set key=value ...]
         [--logs intel,fr079] [--seeds 0,1,2] [--noise-scale 0.5] [--data DIR]
+    python tools/radish_validation.py --write DIR [--logs ...] [--seeds ...]
+        # the logs as files: DIR/NAME_sSEED.npz, .relations and DIR/radish_validation.yaml, a
+        # log set for `bench tune --objective relations --holdout`
 
 CSAIL is the only log here with raw odometry, so a setting chosen by its relations score is
 tuned to them. This script gives the same kind of problem on other buildings, for an
@@ -33,7 +36,8 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from metrics.relations import Relations, lookup_poses, read_relations, relations_error  # noqa: E402
+from metrics.relations import (Relations, lookup_poses, read_relations, relations_error,  # noqa: E402
+                               write_relations)
 from sim.logs import SensorLog, import_log  # noqa: E402
 from slam.pf.motion import motion_std  # noqa: E402
 from slam.pose import compose, relative, wrap_angle  # noqa: E402
@@ -90,6 +94,34 @@ def matched_relations(rel: Relations, scan_t: np.ndarray, offset: float, tol: fl
     return Relations(t1[ok], t2[ok], rel.delta[ok])
 
 
+def write_logset(out: Path, names: list[str], seeds: list[int], noise_scale: float,
+                 data: Path) -> int:
+    """Each log and seed as OUT/NAME_sSEED.npz with its matched relations (on the log's clock),
+    and OUT/radish_validation.yaml listing them (bench.tune.logset)."""
+    from sim.logs import write_log
+    from worlds.yamlio import atomic_write_text, dump_yaml
+    out.mkdir(parents=True, exist_ok=True)
+    entries = []
+    for name in names:
+        spec = HOLD_OUT[name]
+        log = import_log(data / spec.log)
+        rel = matched_relations(read_relations(data / spec.relations), log.scan_t,
+                                spec.clock_offset, spec.tolerance)
+        for seed in seeds:
+            stem = f"{name}_s{seed}"
+            write_log(synthetic_raw_log(log, noise_scale, seed), out / f"{stem}.npz")
+            write_relations(out / f"{stem}.relations", rel)
+            entries.append({"log": f"{stem}.npz", "relations": f"{stem}.relations", "name": stem})
+            print(f"{out / stem}.npz: {len(rel)} relations", flush=True)
+    atomic_write_text(out / "radish_validation.yaml", dump_yaml({
+        "name": "radish_validation",
+        "description": f"corrected {', '.join(names)} scans with synthetic raw odometry "
+                       f"(noise scale {noise_scale:g}), seeds {', '.join(map(str, seeds))}",
+        "logs": entries}))
+    print(f"log set: {out / 'radish_validation.yaml'}")
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     from slam.replay import run_algorithm
 
@@ -102,7 +134,12 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--seeds", default="0,1,2")
     ap.add_argument("--noise-scale", type=float, default=0.5)
     ap.add_argument("--data", type=Path, default=DEFAULT_DATA)
+    ap.add_argument("--write", type=Path, metavar="DIR",
+                    help="write the logs, their relations and a log set into DIR; run nothing")
     args = ap.parse_args(argv)
+    if args.write:
+        return write_logset(args.write, args.logs.split(","),
+                            [int(s) for s in args.seeds.split(",")], args.noise_scale, args.data)
     cfg = (load_yaml(Path(args.config)) or {}) if args.config else {}
     for s in args.set:
         set_override(cfg, s)

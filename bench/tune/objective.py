@@ -37,6 +37,9 @@ OBJECTIVES = {
     # surface F1 is bench's main map score; the study's cell F1 where a truth is only a raster
     "f1": Objective("f1", ("surface_f1", "f1"), "maximize", "", "mean map F1"),
     "ate": Objective("ate", ("ate_m",), "minimize", "m", "mean ATE (m)"),
+    # logs with relation files (bench.tune.logset): the mean absolute translational error
+    "relations": Objective("relations", ("relations_abs_trans_m",), "minimize", "m",
+                           "mean relation error (m)"),
 }
 
 

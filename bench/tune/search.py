@@ -2,7 +2,8 @@
 run beside the defaults on a hold-out suite.
 
 A trial is a bench run of one algorithm over the dev suite with the trial's values set on top
-of the defaults (DIR/trials/NNNN, a run folder like any). The sampler is Optuna's TPE, seeded
+of the defaults (DIR/trials/NNNN, a run folder like any); with objective relations, a run over
+a log set's logs, each scored with its relations (bench.tune.logset). The sampler is Optuna's TPE, seeded
 per trial from the tune's seed and the trial's number, so a tune is a function of its
 arguments. The median pruner sees, after each world of the suite's order is done, the mean
 over the worlds so far, and stops a trial whose mean is worse than the median of the earlier
@@ -52,7 +53,8 @@ PRUNER_WARMUP_SHARE = 0.25
 class TuneSpec:
     """The arguments that decide a tune: the algorithm, the dev suite and the hold-out suite
     (names or absolute paths; holdout "" = none), the space file ("" = the shipped space),
-    the number of trials, the objective (f1 or ate) and the sampler's seed."""
+    the number of trials, the objective (f1, ate, or relations: then the suites are log sets,
+    bench.tune.logset) and the sampler's seed."""
 
     algo: str
     suite: str
@@ -97,14 +99,66 @@ def read_tune(out_dir: Path) -> TuneSpec:
         raise InputError(f"{path}: spec: not a tune's arguments ({err})") from None
 
 
-def _dev_spec(spec: TuneSpec, suite: str):
-    from bench.spec import spec_from_options
-    return spec_from_options(suite=suite, algo=spec.algo)
+class _SuiteTarget:
+    """What a trial runs with objective f1 or ate: a bench run of the suite."""
+
+    def __init__(self, algo: str, suite: str):
+        from bench.spec import spec_from_options
+        self.algo = algo
+        self.spec = spec_from_options(suite=suite, algo=algo)
+
+    def order(self) -> tuple[list[str], dict[str, int]]:
+        """The world keys in task order, and how many rows each has."""
+        from bench.plan import make_tasks
+        from bench.runner import cross_lidars, load_worlds
+        keys = list(cross_lidars(*load_worlds(list(self.spec.worlds)), self.spec.lidars)[0])
+        order: list[str] = []
+        n: dict[str, int] = {}
+        for task in make_tasks(self.spec, keys):
+            if task.world not in n:
+                order.append(task.world)
+            n[task.world] = n.get(task.world, 0) + 1
+        return order, n
+
+    def run(self, values: dict, folder: Path, jobs, scheduler, on_row) -> str:
+        """Run (or complete) the suite with `values` into `folder`: "complete", "stopped",
+        "interrupted" or the reason a worker crashed."""
+        from bench.results import RUN_NAME
+        from bench.runner import run_benchmark
+        spec = dataclasses.replace(self.spec, overrides={self.algo: overrides_of(values)}
+                                   if values else {})
+        outcome = run_benchmark(spec, folder, jobs=jobs, scheduler=scheduler,
+                                resume=(folder / RUN_NAME).exists(), progress=False,
+                                on_row=on_row)
+        if outcome.crashed:
+            return outcome.crashed
+        return ("interrupted" if outcome.interrupted else
+                "stopped" if outcome.stopped else "complete")
 
 
-def _with_values(run_spec, algo: str, values: dict):
-    """`run_spec` with the trial's values set on `algo`'s config."""
-    return dataclasses.replace(run_spec, overrides={algo: overrides_of(values)} if values else {})
+class _LogSetTarget:
+    """What a trial runs with objective relations: the logs of a log set."""
+
+    def __init__(self, algo: str, path: str):
+        from bench.tune.logset import load_logset
+        self.algo = algo
+        self.logset = load_logset(path)
+
+    def order(self) -> tuple[list[str], dict[str, int]]:
+        names = [e.name for e in self.logset.logs]
+        return names, {n: 1 for n in names}
+
+    def run(self, values: dict, folder: Path, jobs, scheduler, on_row) -> str:
+        from bench.tune.logset import run_logset
+        return run_logset(self.algo, self.logset, overrides_of(values), folder, jobs, scheduler,
+                          on_row)
+
+
+def make_target(algo: str, objective: str, suite: str):
+    """The runs a trial makes: a log set for objective relations, else a suite."""
+    if objective == "relations":
+        return _LogSetTarget(algo, suite)
+    return _SuiteTarget(algo, suite)
 
 
 def tune(spec: TuneSpec, out_dir: str | Path, jobs: int | None = None,
@@ -116,8 +170,8 @@ def tune(spec: TuneSpec, out_dir: str | Path, jobs: int | None = None,
     out_dir = Path(out_dir)
     stream = stream or sys.stderr
     space = load_space(spec.space or None, spec.algo)
-    dev = _dev_spec(spec, spec.suite)
-    hold = _dev_spec(spec, spec.holdout) if spec.holdout else None
+    dev = make_target(spec.algo, spec.objective, spec.suite)
+    hold = make_target(spec.algo, spec.objective, spec.holdout) if spec.holdout else None
     _check_folder(out_dir, spec, resume)
     with run_lock(out_dir):
         atomic_write_text(out_dir / TUNE_NAME,
@@ -154,14 +208,14 @@ class _Tuner:
     def run(self) -> TuneOutcome:
         import optuna
         optuna.logging.set_verbosity(optuna.logging.WARNING)
-        defaults = self.bench(self.dev, self.out_dir / "defaults", "the dev suite, defaults")
+        defaults = self.bench(self.dev, {}, self.out_dir / "defaults", "the dev suite, defaults")
         if defaults is None:
             return self.outcome
         self.excluded = excluded_rows(defaults)
-        if len(self.excluded) * 1 >= len({(r["world"], r.get("draw")) for r in defaults}):
+        if len(self.excluded) >= len({(r["world"], r.get("draw")) for r in defaults}):
             raise InputError(f"{self.out_dir / 'defaults'}: every row failed under the defaults; "
                              "nothing to tune on")
-        self.order, self.n_rows = _world_order(self.dev)
+        self.order, self.n_rows = self.dev.order()
         storage = self.storage()
         while True:
             study = self.study(storage, len(optuna.load_study(study_name=STUDY_NAME,
@@ -176,8 +230,8 @@ class _Tuner:
         best = self.write_best(study)
         if best is not None and self.hold is not None:
             for name, values in (("defaults", {}), ("best", best)):
-                if self.bench(_with_values(self.hold, self.spec.algo, values),
-                              self.out_dir / "holdout" / name, f"the hold-out suite, {name}") is None:
+                if self.bench(self.hold, values, self.out_dir / "holdout" / name,
+                              f"the hold-out suite, {name}") is None:
                     self.outcome.interrupted = True
                     return self.outcome
         from bench.tune.report import write_tune_report
@@ -217,8 +271,8 @@ class _Tuner:
         folder = self.out_dir / "trials" / f"{trial.number:04d}"
         trial.set_user_attr("run", str(folder.relative_to(self.out_dir)))
         state = _TrialRows(self, trial, folder)
-        rows = self.bench(_with_values(self.dev, self.spec.algo, values), folder,
-                          None, on_row=state.on_row, seed_rows=state.seed)
+        rows = self.bench(self.dev, values, folder, None, on_row=state.on_row,
+                          seed_rows=state.seed)
         if rows is None and not state.stopped:
             return False
         if state.failure:
@@ -239,23 +293,21 @@ class _Tuner:
         self.say(f"trial {trial.number + 1}/{self.spec.trials}: {note}; {best}")
         return True
 
-    def bench(self, run_spec, folder: Path, what: str | None, on_row=None, seed_rows=None):
-        """Run (or complete) one bench run into `folder`; its rows, or None when interrupted."""
-        from bench.results import RUN_NAME, ResultStore
-        from bench.runner import run_benchmark
-        resume = (folder / RUN_NAME).exists()
-        if seed_rows is not None and resume:
+    def bench(self, target, values: dict, folder: Path, what: str | None, on_row=None,
+              seed_rows=None):
+        """Run (or complete) `target` with `values` into `folder`; its rows, or None when
+        interrupted or stopped."""
+        from bench.results import RESULTS_NAME, ResultStore
+        started = (folder / RESULTS_NAME).exists()
+        if seed_rows is not None and started:
             if seed_rows(list(ResultStore(folder).rows.values())):
                 return None
         if what:
-            self.say(f"{'completing' if resume else 'running'} {what} in {folder}")
-        outcome = run_benchmark(run_spec, folder, jobs=self.jobs, scheduler=self.scheduler,
-                                resume=resume, progress=False, on_row=on_row)
-        if outcome.interrupted or outcome.crashed:
-            if outcome.crashed:
-                self.say(f"{folder}: {outcome.crashed}")
-            return None
-        if outcome.stopped:
+            self.say(f"{'completing' if started else 'running'} {what} in {folder}")
+        end = target.run(values, folder, self.jobs, self.scheduler, on_row)
+        if end != "complete":
+            if end not in ("stopped", "interrupted"):
+                self.say(f"{folder}: {end}")
             return None
         return list(ResultStore(folder).rows.values())
 
@@ -324,17 +376,3 @@ class _TrialRows:
                 self.pruned = True
                 return True
         return False
-
-
-def _world_order(run_spec) -> tuple[list[str], dict[str, int]]:
-    """The world keys of a run in task order, and how many rows each has."""
-    from bench.plan import make_tasks
-    from bench.runner import cross_lidars, load_worlds
-    keys = list(cross_lidars(*load_worlds(list(run_spec.worlds)), run_spec.lidars)[0])
-    order: list[str] = []
-    n: dict[str, int] = {}
-    for task in make_tasks(run_spec, keys):
-        if task.world not in n:
-            order.append(task.world)
-        n[task.world] = n.get(task.world, 0) + 1
-    return order, n

@@ -177,3 +177,66 @@ def test_resume_refuses_other_arguments(tmp_path, capsys):
     code = main(["tune", "--resume", str(tmp_path / "t"), "--objective", "f1"])
     assert code == 2
     assert "give --trials at most" in capsys.readouterr().err
+
+
+def _logset(tmp_path: Path, draws: int = 2) -> str:
+    """A log set of the tiny world's logs, each with relations between its true poses 1 s apart."""
+    import numpy as np
+    import sim
+    import worlds
+    from metrics.relations import Relations, write_relations
+    from slam.pose import relative
+    entries = []
+    for seed in range(draws):
+        log = sim.record(worlds.load_world(TINY), seed=seed)
+        sim.write_log(log, tmp_path / f"tiny_s{seed}.npz")
+        k = np.searchsorted(log.gt_t, log.scan_t[::5])
+        t = log.gt_t[np.minimum(k, len(log.gt_t) - 1)]
+        p = log.gt_pose[np.minimum(k, len(log.gt_t) - 1)]
+        write_relations(tmp_path / f"tiny_s{seed}.relations",
+                        Relations(t[:-1], t[1:], relative(p[:-1], p[1:])))
+        entries.append(f"  - {{log: tiny_s{seed}.npz, relations: tiny_s{seed}.relations}}")
+    path = tmp_path / "logs.yaml"
+    path.write_text("name: tinylogs\nlogs:\n" + "\n".join(entries) + "\n")
+    return str(path)
+
+
+def test_a_relations_tune_runs_on_a_log_set_and_holds_out_another(tmp_path):
+    logs = _logset(tmp_path)
+    spec = TuneSpec(algo="fake_map", suite=logs, holdout=logs, space=_space(tmp_path, NOISE_SPACE),
+                    trials=4, objective="relations")
+    outcome = tune(spec, tmp_path / "t", jobs=1, progress=False)
+    assert outcome.complete == 4
+    rows = json.loads((tmp_path / "t" / "trials" / "0000" / "results.json").read_text())["rows"]
+    assert sorted(r["world"] for r in rows) == ["tiny_s0", "tiny_s1"]
+    assert all(r["relations_abs_trans_m"] > 0 for r in rows)
+    assert "mean relation error (m)" in (tmp_path / "t" / "summary.md").read_text()
+    # the pose noise is what the relation error measures: the best trial has the least
+    best = load_config_checked("fake_map", str(tmp_path / "t" / "best.yaml")).pose_noise_m
+    assert best == min(t for t in _trial_values(tmp_path / "t"))
+
+
+def _trial_values(out: Path) -> list[float]:
+    data = json.loads((out / "summary.json").read_text())
+    assert data["best_params"]
+    import optuna
+    from optuna.storages import JournalStorage
+    from optuna.storages.journal import JournalFileBackend
+    study = optuna.load_study(study_name="tune", storage=JournalStorage(
+        JournalFileBackend(str(out / "optuna.journal"))))
+    return [t.params["pose_noise_m"] for t in study.trials]
+
+
+@pytest.mark.parametrize("text, message", [
+    ("logs: []\n", "logs: expected a list"),
+    ("logs:\n  - {log: nosuch.npz, relations: r.txt}\n", "logs[0].log: nosuch.npz: file not found"),
+    ("logs:\n  - {lg: a.npz}\n", "logs[0].lg: unknown key (did you mean 'log'?)"),
+    ("name: x\nlog: []\n", "log: unknown key"),
+])
+def test_a_bad_log_set_names_its_file_and_field(tmp_path, text, message):
+    from bench.tune.logset import load_logset
+    path = tmp_path / "set.yaml"
+    path.write_text(text)
+    with pytest.raises(InputError) as err:
+        load_logset(path)
+    assert str(err.value).startswith(f"{path}: ") and message in str(err.value)

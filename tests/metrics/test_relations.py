@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from metrics.relations import (Relations, add_relations_arguments, lookup_poses, read_relations,
+                               write_relations,
                                relation_errors, relations_error, relations_from_files,
                                relations_main)
 from worlds.yamlio import InputError
@@ -192,3 +193,12 @@ def test_raw_csail_odometry_baseline():
     assert res["short"]["abs_trans_mean"] == pytest.approx(0.0471, abs=5e-4)
     assert res["long"]["n"] == 128
     assert res["long"]["abs_trans_mean"] == pytest.approx(15.234, abs=1e-2)
+
+
+def test_written_relations_read_back(tmp_path):
+    rng = np.random.default_rng(3)
+    rel = Relations(np.arange(5) + 1e9, np.arange(5) + 1e9 + 0.5, rng.normal(0, 1, (5, 3)))
+    write_relations(tmp_path / "r.relations", rel)
+    back = read_relations(tmp_path / "r.relations")
+    assert np.allclose(back.t1, rel.t1, atol=1e-6) and np.allclose(back.t2, rel.t2, atol=1e-6)
+    assert np.allclose(back.delta, rel.delta, rtol=1e-8)
