@@ -27,7 +27,7 @@ from typing import Any
 
 from bench.plan import MAX_DRAWS
 from worlds.paths import check_name, names_a_file
-from worlds.yamlio import InputError, _suggest, atomic_write_text, load_yaml, short
+from worlds.yamlio import InputError, _suggest, atomic_write_text, check_keys, load_yaml, short
 
 __all__ = ["Suite", "load_suite", "list_suites", "suite_dir", "DEFAULT_DRAWS"]
 
@@ -78,9 +78,7 @@ def load_suite(name_or_path: str) -> Suite:
     data = load_yaml(p)
     if not isinstance(data, dict):
         raise InputError(f"{where}: top level: expected a mapping with keys {', '.join(_KEYS)}")
-    for key in data:
-        if key not in _KEYS:
-            raise InputError(f"{where}: {key}: unknown key{_suggest(str(key), _KEYS)}")
+    check_keys(data, _KEYS, where)
     if "name" in data:
         name = check_name(data["name"], where, "name")
     else:
@@ -178,9 +176,7 @@ def _generator_key() -> str:
 def _generated_args(item: dict, where: str, field: str) -> tuple[str, int, tuple | None]:
     """The checked (kind, seed, size) of a {generate, seed, size} entry, nothing drawn yet."""
     from worlds.generate import KINDS, check_args
-    for key in item:
-        if key not in _GENERATE_KEYS:
-            raise InputError(f"{where}: {field}.{key}: unknown key{_suggest(str(key), _GENERATE_KEYS)}")
+    check_keys(item, _GENERATE_KEYS, where, field)
     if "generate" not in item:
         raise InputError(f"{where}: {field}.generate: missing (the kind of world to generate)")
     seed = item.get("seed", 0)

@@ -21,7 +21,7 @@ from shapely.geometry import Point
 from worlds.limits import MAX_COORDINATE, check_coordinates
 from worlds.model import ROBOT_RADIUS, Wall, World, make_obstacle
 from worlds.paths import check_name, names_a_file
-from worlds.yamlio import InputError, _suggest, load_yaml, short
+from worlds.yamlio import InputError, check_keys, load_yaml, short
 
 __all__ = ["load_world", "list_worlds", "world_from_dict", "world_dir", "reachable_region",
            "MAX_OBSTACLES", "MAX_WALL_POINTS", "MAX_CIRCLE_SIDES"]
@@ -106,9 +106,7 @@ def _mapping(v: Any, where: str, field: str, allowed: list[str], required: list[
     if not isinstance(v, dict):
         raise InputError(f"{where}: {field}: expected a mapping with keys {', '.join(allowed)}, "
                          f"got {short(v)}")
-    for key in v:
-        if key not in allowed:
-            raise InputError(f"{where}: {field}.{key}: unknown key{_suggest(str(key), allowed)}")
+    check_keys(v, allowed, where, field)
     for key in required:
         if key not in v:
             raise InputError(f"{where}: {field}.{key}: missing required field")
@@ -219,9 +217,7 @@ def world_from_dict(data: Any, where: str = "<world>", default_name: str = "worl
     if not isinstance(data, dict):
         raise InputError(f"{where}: top level: expected a mapping with keys "
                          f"{', '.join(_TOP_KEYS)}, got {short(data)}")
-    for key in data:
-        if key not in _TOP_KEYS:
-            raise InputError(f"{where}: {key}: unknown key{_suggest(str(key), _TOP_KEYS)}")
+    check_keys(data, _TOP_KEYS, where)
     for key in ("walls", "robot"):
         if key not in data:
             raise InputError(f"{where}: {key}: missing required field")

@@ -130,6 +130,15 @@ def _suggest(key: str, allowed: list[str]) -> str:
     return f" (did you mean '{close[0]}'?)" if close else f" (allowed: {', '.join(allowed)})"
 
 
+def check_keys(data: Mapping, allowed: list[str], where: str, field: str = "") -> None:
+    """InputError '<where>: <field>.<key>: unknown key (did you mean ...)' for the first key of
+    the mapping `data` not in `allowed` (field "": top-level keys)."""
+    for key in data:
+        if key not in allowed:
+            at = f"{field}.{key}" if field else str(key)
+            raise InputError(f"{where}: {at}: unknown key{_suggest(str(key), allowed)}")
+
+
 def _convert(tp: Any, value: Any, where: str, field: str) -> Any:
     """Convert `value` to type `tp`, raising InputError that names `where: field`."""
     origin = typing.get_origin(tp)

@@ -22,7 +22,7 @@ from pathlib import Path
 from typing import Any
 
 from worlds.paths import check_name
-from worlds.yamlio import InputError, _suggest, load_yaml, short
+from worlds.yamlio import InputError, check_keys, load_yaml, short
 
 __all__ = ["LogEntry", "LogSet", "load_logset", "run_logset", "relations_task", "MAX_LOGS"]
 
@@ -61,9 +61,7 @@ def load_logset(path: str | Path) -> LogSet:
     data = load_yaml(p)
     if not isinstance(data, dict):
         raise InputError(f"{where}: top level: expected a mapping with 'logs', got {short(data)}")
-    for key in data:
-        if key not in _KEYS:
-            raise InputError(f"{where}: {key}: unknown key{_suggest(str(key), _KEYS)}")
+    check_keys(data, _KEYS, where)
     items = data.get("logs")
     if not isinstance(items, list) or not items:
         raise InputError(f"{where}: logs: expected a list of {{log: , relations: }}, got {short(items)}")
@@ -86,9 +84,7 @@ def _entry(where: str, base: Path, i: int, item: Any) -> LogEntry:
     at = f"{where}: logs[{i}]"
     if not isinstance(item, dict):
         raise InputError(f"{at}: expected {{log: FILE, relations: FILE}}, got {short(item)}")
-    for key in item:
-        if key not in _ENTRY_KEYS:
-            raise InputError(f"{at}.{key}: unknown key{_suggest(str(key), _ENTRY_KEYS)}")
+    check_keys(item, _ENTRY_KEYS, where, f"logs[{i}]")
     files = {}
     for key in ("log", "relations"):
         if not isinstance(item.get(key), str) or not item[key]:

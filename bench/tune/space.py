@@ -22,7 +22,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from worlds.yamlio import InputError, _suggest, load_yaml, short
+from worlds.yamlio import InputError, _suggest, check_keys, load_yaml, short
 
 __all__ = ["Param", "SearchSpace", "load_space", "default_space_path", "MAX_PARAMS"]
 
@@ -98,9 +98,7 @@ def load_space(path: str | Path | None, algo: str) -> SearchSpace:
     data = load_yaml(path)
     if not isinstance(data, dict):
         raise InputError(f"{where}: top level: expected a mapping with 'params', got {short(data)}")
-    for key in data:
-        if key not in _SPACE_KEYS:
-            raise InputError(f"{where}: {key}: unknown key{_suggest(str(key), _SPACE_KEYS)}")
+    check_keys(data, _SPACE_KEYS, where)
     if data.get("algo") not in (None, algo):
         raise InputError(f"{where}: algo: the space is written for {short(data['algo'])}, "
                          f"the tune is of {algo}")
@@ -140,9 +138,7 @@ def _param(where: str, name: str, spec: Any, fields: dict[str, Any], algo: str) 
                 raise InputError(f"{at}.choices: expected numbers, strings or booleans, got {short(c)}")
             _check_value(where, name, c, algo)
         return Param(name, "choice", choices=tuple(choices))
-    for key in spec:
-        if key not in _RANGE_KEYS:
-            raise InputError(f"{at}.{key}: unknown key{_suggest(str(key), _RANGE_KEYS + ['choices'])}")
+    check_keys(spec, _RANGE_KEYS + ["choices"], where, f"params.{name}")
     if isinstance(default, bool) or not isinstance(default, (int, float)):
         raise InputError(f"{at}: the field holds {short(default)}, not a number; give "
                          "{choices: [...]}")
