@@ -152,6 +152,8 @@ def _trials_table(space, trials) -> list[str]:
             state = f"failed: {str(t.user_attrs.get('failure', ''))[:60]}"
         else:
             state = t.state.name.lower()
+        if t.user_attrs.get("defaults"):
+            state += " (the defaults)"
         vals = " | ".join(_value(t.params.get(p.path, "–")) for p in space.params)
         lines.append(f"| {t.number} | {state} | {_fmt(t.value, 5)} | {vals} |")
     return lines + [""]

@@ -244,8 +244,14 @@ class _Tuner:
         from optuna.storages import JournalStorage
         from optuna.storages.journal import JournalFileBackend
         storage = JournalStorage(JournalFileBackend(str(self.out_dir / JOURNAL_NAME)))
-        optuna.create_study(study_name=STUDY_NAME, storage=storage, load_if_exists=True,
-                            direction=self.objective.direction)
+        study = optuna.create_study(study_name=STUDY_NAME, storage=storage, load_if_exists=True,
+                                    direction=self.objective.direction)
+        if not study.trials:
+            start = self.space.defaults()
+            if start is not None:
+                # the first trial is the defaults (when the space holds them): TPE then has a
+                # good point to search around, and the pruner a fair median from the start
+                study.enqueue_trial(start, user_attrs={"defaults": True})
         return storage
 
     def study(self, storage, number: int):

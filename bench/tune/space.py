@@ -67,6 +67,20 @@ class SearchSpace:
         """{dotted field: value} drawn by an Optuna trial."""
         return {p.path: p.suggest(trial) for p in self.params}
 
+    def defaults(self) -> dict[str, Any] | None:
+        """{dotted field: class default} when every default lies in the space, else None."""
+        fields = _leaf_fields(self.algo)
+        out = {}
+        for p in self.params:
+            v = fields[p.path]
+            inside = (v in p.choices if p.kind == "choice" else
+                      p.low <= v <= p.high and (p.step is None or
+                                                abs((v - p.low) / p.step - round((v - p.low) / p.step)) < 1e-9))
+            if not inside:
+                return None
+            out[p.path] = v
+        return out
+
 
 def default_space_path(algo: str) -> Path:
     """The shipped space of `algo` (it may not exist: then --space is required)."""
