@@ -240,3 +240,37 @@ def test_a_bad_log_set_names_its_file_and_field(tmp_path, text, message):
     with pytest.raises(InputError) as err:
         load_logset(path)
     assert str(err.value).startswith(f"{path}: ") and message in str(err.value)
+
+
+def test_a_killed_tune_resumes_to_the_same_best_trial(tmp_path):
+    """SIGKILL (a lost machine) part way through a trial; --resume ends as an uninterrupted tune."""
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+    repo = Path(__file__).resolve().parents[2]
+    space = _space(tmp_path, NOISE_SPACE + "  delay_s: {choices: [0.1]}\n")   # slow runs
+    args = ["tune", "--algo", "fake_map", "--suite", _suite(tmp_path, "dev", worlds=2, draws=1),
+            "--space", space, "--trials", "6", "--objective", "ate", "--jobs", "1", "--no-progress"]
+    code = ("import sys; import tests.bench.fakes; from bench.__main__ import main; "
+            "sys.exit(main(sys.argv[1:]))")
+    env = dict(os.environ, PYTHONPATH=str(repo))
+    killed = tmp_path / "killed"
+    proc = subprocess.Popen([sys.executable, "-c", code, *args, "--out", str(killed)], cwd=repo,
+                            env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    target = killed / "trials" / "0003" / "results.json"
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline and proc.poll() is None and not target.exists():
+        time.sleep(0.02)
+    proc.send_signal(signal.SIGKILL)
+    proc.wait(timeout=30)
+    assert target.exists() and not (killed / "summary.md").exists()
+    resumed = subprocess.run([sys.executable, "-c", code, "tune", "--resume", str(killed),
+                              "--jobs", "1", "--no-progress"],
+                             cwd=repo, env=env, capture_output=True, text=True)
+    assert resumed.returncode == 0, resumed.stderr
+    assert main([*args, "--out", str(tmp_path / "whole")]) == 0
+    a = json.loads((killed / "summary.json").read_text())
+    b = json.loads((tmp_path / "whole" / "summary.json").read_text())
+    assert a == b and a["best_trial"] is not None
