@@ -69,7 +69,10 @@ def params_figure(trials, space, objective, path: Path) -> None:
             xs = [labels.index(str(x)) for x in xs]
             ax.set_xticks(range(len(labels)), labels, fontsize=7)
         elif p.log:
+            from matplotlib.ticker import NullFormatter
             ax.set_xscale("log")
+            ax.xaxis.set_minor_formatter(NullFormatter())   # minor labels overlap
+        ax.tick_params(labelsize=7)
         ax.plot(xs, ys, "o", ms=4)
         ax.set_title(p.path.split(".")[-1], fontsize=8)
         ax.set_ylabel(objective.label, fontsize=7)

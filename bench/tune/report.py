@@ -144,7 +144,8 @@ def _value(v) -> str:
 def _trials_table(space, trials) -> list[str]:
     head = "| trial | state | value | " + " | ".join(f"`{p.path.split('.')[-1]}`"
                                                     for p in space.params) + " |"
-    lines = ["## Trials", "", head, "|" + "---|" * (3 + len(space.params))]
+    lines = ["## Trials", "", "A pruned trial's value is its mean over the worlds it finished.", "",
+             head, "|" + "---|" * (3 + len(space.params))]
     for t in trials:
         if t.state.name == "PRUNED":
             state = f"pruned at world {len(t.intermediate_values)}"
