@@ -95,7 +95,7 @@ def write_tune_report(out_dir: str | Path, figures: bool = True) -> Path:
         lines += _comparison_table(objective, "Dev suite (chosen on it)",
                                    compare_runs(objective, defaults, best_rows, excluded))
         hold_a = _rows(out_dir / "holdout" / "defaults")
-        hold_b = _rows(out_dir / "holdout" / "best")
+        hold_b = _rows(out_dir / "holdout" / f"trial_{best.number:04d}")
         if hold_a is not None and hold_b is not None:
             hold_ex = excluded_rows(hold_a)
             lines += _comparison_table(objective, "Hold-out suite (not seen while choosing)",

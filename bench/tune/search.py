@@ -20,7 +20,8 @@ DIR/optuna.journal   the Optuna study (JournalStorage)
 DIR/defaults/        the dev suite with the default config
 DIR/trials/NNNN/     trial NNNN's bench run
 DIR/best.yaml        the best trial's values, a config file for --config
-DIR/holdout/{defaults,best}/   the hold-out suite with each config
+DIR/holdout/defaults/, DIR/holdout/trial_NNNN/   the hold-out suite with the defaults and
+                     with the best trial's values (a tune given more trials may find another)
 DIR/summary.md, DIR/figures/   the report (bench.tune.report)
 """
 from __future__ import annotations
@@ -210,6 +211,7 @@ class _Tuner:
         optuna.logging.set_verbosity(optuna.logging.WARNING)
         defaults = self.bench(self.dev, {}, self.out_dir / "defaults", "the dev suite, defaults")
         if defaults is None:
+            self.outcome.interrupted = True
             return self.outcome
         self.excluded = excluded_rows(defaults)
         if len(self.excluded) >= len({(r["world"], r.get("draw")) for r in defaults}):
@@ -229,7 +231,8 @@ class _Tuner:
         self._count(study)
         best = self.write_best(study)
         if best is not None and self.hold is not None:
-            for name, values in (("defaults", {}), ("best", best)):
+            number = study.best_trial.number
+            for name, values in (("defaults", {}), (f"trial_{number:04d}", best)):
                 if self.bench(self.hold, values, self.out_dir / "holdout" / name,
                               f"the hold-out suite, {name}") is None:
                     self.outcome.interrupted = True

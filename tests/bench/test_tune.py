@@ -88,7 +88,8 @@ def test_a_tune_finds_a_better_config_and_judges_it_on_the_holdout(tmp_path):
     summary = (out / "summary.md").read_text()
     assert "### Hold-out suite" in summary and "### Dev suite" in summary
     assert (out / "figures" / "objective.png").is_file()
-    assert (out / "holdout" / "best" / "results.json").is_file()
+    best_trial = json.loads((out / "summary.json").read_text())["best_trial"]
+    assert (out / "holdout" / f"trial_{best_trial:04d}" / "results.json").is_file()
     data = json.loads((out / "summary.json").read_text())
     assert data["best_params"]["pose_noise_m"] == pytest.approx(best.pose_noise_m)
 
@@ -274,3 +275,15 @@ def test_a_killed_tune_resumes_to_the_same_best_trial(tmp_path):
     a = json.loads((killed / "summary.json").read_text())
     b = json.loads((tmp_path / "whole" / "summary.json").read_text())
     assert a == b and a["best_trial"] is not None
+
+
+def test_a_finished_tune_takes_more_trials_and_judges_its_new_best(tmp_path):
+    def spec(trials):
+        return TuneSpec(algo="fake_map", suite=_suite(tmp_path, "dev", draws=1),
+                        holdout=_suite(tmp_path, "hold", draws=1),
+                        space=_space(tmp_path, NOISE_SPACE), trials=trials, objective="ate")
+    first = tune(spec(3), tmp_path / "t", jobs=1, progress=False)
+    more = tune(spec(8), tmp_path / "t", jobs=1, progress=False, resume=True)
+    assert (first.complete, more.complete) == (3, 8)
+    assert (tmp_path / "t" / "holdout" / f"trial_{more.best_number:04d}" / "results.json").is_file()
+    assert "### Hold-out suite" in (tmp_path / "t" / "summary.md").read_text()
