@@ -25,7 +25,8 @@ def compare_runs(objective: Objective, base: list[dict], other: list[dict],
                  excluded: dict) -> dict:
     """Defaults (`base`) against a tuned config (`other`) on the same logs: each one's mean,
     the per-draw means, the per-draw difference (other - base) with its mean and standard
-    deviation over draws, and in how many worlds `other` is better."""
+    deviation over draws, in how many worlds `other` is better, and how many of `other`'s runs
+    failed where the defaults did not (they are in no mean: the table says so)."""
     a, b = per_draw(objective, base, excluded), per_draw(objective, other, excluded)
     draws = sorted(set(a) & set(b))
     diff = np.array([b[d] - a[d] for d in draws])
@@ -38,7 +39,10 @@ def compare_runs(objective: Objective, base: list[dict], other: list[dict],
             "other_draws": [b[d] for d in draws],
             "diff_mean": float(diff.mean()) if draws else None,
             "diff_std": float(diff.std(ddof=1)) if len(draws) > 1 else None,
-            "better_worlds": better, "worlds": len(worlds)}
+            "better_worlds": better, "worlds": len(worlds),
+            "failed": sorted(f"{r['world']} draw {int(r.get('draw') or 0)}: {r.get('error')}"
+                             for r in other if r.get("status") != "ok"
+                             and (r["world"], int(r.get("draw") or 0)) not in excluded)}
 
 
 def _fmt(v, digits: int = 4) -> str:
@@ -56,6 +60,10 @@ def _comparison_table(objective: Objective, title: str, cmp: dict) -> list[str]:
     spread = "" if cmp["diff_std"] is None else f" ± {cmp['diff_std']:.4f} (std over draws)"
     lines.append(f"best - defaults: {_fmt(cmp['diff_mean'])}{spread}; the best config is better "
                  f"on {cmp['better_worlds']} of {cmp['worlds']} worlds.")
+    if cmp["failed"]:
+        lines += ["", f"**{len(cmp['failed'])} runs of the best config failed** where the "
+                  "defaults did not; they are in no mean above:", ""]
+        lines += [f"- {f}" for f in cmp["failed"]]
     return lines + [""]
 
 

@@ -275,6 +275,8 @@ class _Tuner:
         import optuna
         from optuna.trial import TrialState
         running = [t for t in study.trials if t.state == TrialState.RUNNING]
+        # Optuna has no public call that re-opens a running trial; a Trial on its id returns
+        # the values it already drew
         trial = (optuna.Trial(study, running[0]._trial_id) if running else study.ask())
         values = self.space.suggest(trial)
         folder = self.out_dir / "trials" / f"{trial.number:04d}"

@@ -287,3 +287,15 @@ def test_a_finished_tune_takes_more_trials_and_judges_its_new_best(tmp_path):
     assert (first.complete, more.complete) == (3, 8)
     assert (tmp_path / "t" / "holdout" / f"trial_{more.best_number:04d}" / "results.json").is_file()
     assert "### Hold-out suite" in (tmp_path / "t" / "summary.md").read_text()
+
+
+def test_the_comparison_lists_runs_the_tuned_config_failed():
+    from bench.tune.objective import get_objective
+    from bench.tune.report import compare_runs
+    ate = get_objective("ate")
+    base = [{"world": w, "draw": d, "status": "ok", "ate_m": 0.02} for w in "ab" for d in (0, 1)]
+    other = [dict(r, ate_m=0.01) for r in base[:3]] + [dict(base[3], status="failed",
+                                                              error="diverged", ate_m=None)]
+    cmp = compare_runs(ate, base, other, {})
+    assert cmp["failed"] == ["b draw 1: diverged"]
+    assert cmp["diff_mean"] == pytest.approx(-0.01) and cmp["better_worlds"] == 2
