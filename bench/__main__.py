@@ -3,6 +3,7 @@ Python API)."""
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import sys
 from pathlib import Path
 
@@ -180,7 +181,7 @@ def cmd_tune(args) -> int:
         if any(v is not None for v in given.values()):
             raise InputError("--resume takes the tune's arguments from its tune.json; give "
                              "--trials at most")
-        spec = TuneSpec(**{**base.__dict__, "trials": args.trials or base.trials})
+        spec = dataclasses.replace(base, trials=args.trials or base.trials)
     else:
         if not args.algo or not args.suite:
             raise InputError("tune: --algo and --suite are required")

@@ -22,7 +22,7 @@ import numpy as np
 from worlds.grid import Grid
 
 __all__ = ["WorldInfo", "execute", "record_log", "versions", "DIVERGE_MARGIN_M", "TOLERANCES",
-           "check_divergence", "new_row", "score_trajectory"]
+           "check_divergence", "new_row", "score_trajectory", "failure_fields"]
 
 # a pose this far outside the world's solid geometry cannot be a working SLAM
 DIVERGE_MARGIN_M = 2.0
@@ -212,6 +212,14 @@ def machine() -> dict:
     return dict(_MACHINE)
 
 
+def failure_fields(err: BaseException) -> dict:
+    """The fields a row takes when its run raised `err`: status, a one-line error (the type and
+    the message's first line) and the traceback's last frames."""
+    msg = str(err).strip().splitlines()[0] if str(err).strip() else ""
+    return {"status": "failed", "error": f"{type(err).__name__}: {msg}".rstrip(": "),
+            "traceback": "".join(traceback.format_exception(err)[-3:])}
+
+
 def execute(task, world: WorldInfo, log_source, config=None, noise: str = "", vary: str = "slam",
             algo_cls: type | None = None):
     """Run `task` (bench.plan.Task) on the log; return (row, arrays) (see the module docstring).
@@ -251,9 +259,7 @@ def execute(task, world: WorldInfo, log_source, config=None, noise: str = "", va
                 row.update(_trajectory_scores(result, log))
             row["score_time_s"] = time.perf_counter() - s0
     except Exception as err:  # a failing SLAM (or scorer) is a result, not a crash
-        msg = str(err).strip().splitlines()[0] if str(err).strip() else ""
-        row.update(status="failed", error=f"{type(err).__name__}: {msg}".rstrip(": "),
-                   traceback="".join(traceback.format_exception(err)[-3:]))
+        row.update(failure_fields(err))
     row["task_time_s"] = time.perf_counter() - t0
     row["worker"] = platform.node()
     return row, arrays

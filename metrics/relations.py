@@ -36,8 +36,8 @@ from worlds.yamlio import InputError
 from sim.logs.tum import read_number_rows
 from slam.pose import compose, interpolate_poses, inverse, wrap_angle
 
-__all__ = ["Relations", "read_relations", "write_relations", "lookup_poses", "relation_errors", "relations_error",
-           "relations_from_files", "add_relations_arguments", "relations_main", "format_relations",
+__all__ = ["Relations", "read_relations", "write_relations", "lookup_poses", "relation_errors",
+           "relations_error", "relations_from_files", "add_relations_arguments", "relations_main", "format_relations",
            "LOOKUPS", "STAT_KEYS"]
 
 LOOKUPS = ("interpolate", "exact")

@@ -270,14 +270,21 @@ def set_override(data: dict, override: str) -> dict:
     if "=" not in override:
         raise InputError(f"override {short(override)}: expected key.path=value")
     key, value = override.split("=", 1)
-    parts = key.strip().split(".")
+    return set_dotted(data, key.strip(), parse_yaml(value, f"override {short(override)}"),
+                      f"override {short(override)}")
+
+
+def set_dotted(data: dict, path: str, value: Any, where: str = "<config>") -> dict:
+    """Set `value` at the dotted `path` of nested plain data, in place, creating missing
+    levels; InputError (naming `where`) when a level on the way holds a value. Returns data."""
+    parts = path.split(".")
     d = data
     for i, p in enumerate(parts[:-1]):
         d = d.setdefault(p, {})
         if not isinstance(d, dict):
-            raise InputError(f"override {short(override)}: {'.'.join(parts[:i + 1])} holds a "
-                             "value, not a block of fields")
-    d[parts[-1]] = parse_yaml(value, f"override {short(override)}")
+            raise InputError(f"{where}: {'.'.join(parts[:i + 1])} holds a value, not a block "
+                             "of fields")
+    d[parts[-1]] = value
     return data
 
 

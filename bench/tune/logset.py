@@ -9,8 +9,8 @@ A log set is YAML:
       - {log: data/csail.corrected.gfs, relations: data/mit-csail.relations}
       - {log: intel_s0.npz, relations: intel_s0.relations, name: intel_s0}
 
-Paths are relative to the file. A log is anything `python -m slam run --log` reads (a sensor
-log .npz, a CARMEN or GMapping log); its relations file holds `t1 t2 x y z roll pitch yaw`
+Paths are relative to the file. A log is a sensor log .npz or a CARMEN / GMapping log (what
+`sim.logs.import_log` reads); its relations file holds `t1 t2 x y z roll pitch yaw`
 lines on the log's clock (Kuemmerle et al. 2009). `name` (default: the log file's stem) names
 the log's rows. A log set's run is a folder like a bench run's: results.json with one row per
 log (world = the log's name), written as each finishes.
@@ -108,8 +108,8 @@ def relations_task(algo: str, entry: LogEntry, config: dict, seed: int = 0) -> d
     log's name; relations_abs_trans_m the mean absolute translational error, the objective).
     A failing SLAM is a failed row, not a crash."""
     import time
-    import traceback
     from metrics.relations import read_relations, relations_error
+    from bench.task import failure_fields
     from slam.replay import run_algorithm
     row = {"world": entry.name, "algo": algo, "repeat": 0, "draw": 0, "status": "ok",
            "error": None, "slam_seed": seed, "log_file": entry.log}
@@ -129,9 +129,7 @@ def relations_task(algo: str, entry: LogEntry, config: dict, seed: int = 0) -> d
                    relations_long_abs_trans_m=_finite(res["long"]["abs_trans_mean"]),
                    relations_used=res["n_used"])
     except Exception as err:  # a failing SLAM is a result of the trial
-        msg = str(err).strip().splitlines()[0] if str(err).strip() else ""
-        row.update(status="failed", error=f"{type(err).__name__}: {msg}".rstrip(": "),
-                   traceback="".join(traceback.format_exception(err)[-3:]))
+        row.update(failure_fields(err))
     row["wall_time_s"] = time.perf_counter() - t0
     return row
 

@@ -132,9 +132,8 @@ def write_tune_report(out_dir: str | Path, figures: bool = True) -> Path:
 
 
 def _values_table(algo: str, space, params: dict) -> list[str]:
-    from slam import registry
-    from slam.fields import config_fields
-    defaults = {f.path: f.default for f in config_fields(registry.get(algo).config_class)}
+    from bench.tune.space import field_defaults
+    defaults = field_defaults(algo)
     lines = ["| field | default | best | searched |", "|---|---|---|---|"]
     for p in space.params:
         rng = (", ".join(map(str, p.choices)) if p.kind == "choice"

@@ -22,9 +22,10 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from worlds.yamlio import InputError, _suggest, check_keys, load_yaml, short
+from worlds.yamlio import InputError, _suggest, check_keys, load_yaml, set_dotted, short
 
-__all__ = ["Param", "SearchSpace", "load_space", "default_space_path", "MAX_PARAMS"]
+__all__ = ["Param", "SearchSpace", "load_space", "default_space_path", "overrides_of",
+           "field_defaults", "MAX_PARAMS"]
 
 MAX_PARAMS = 100
 _SPACE_KEYS = ["algo", "params"]
@@ -69,7 +70,7 @@ class SearchSpace:
 
     def defaults(self) -> dict[str, Any] | None:
         """{dotted field: class default} when every default lies in the space, else None."""
-        fields = _leaf_fields(self.algo)
+        fields = field_defaults(self.algo)
         out = {}
         for p in self.params:
             v = fields[p.path]
@@ -91,11 +92,7 @@ def overrides_of(values: dict[str, Any]) -> dict:
     """{dotted field: value} -> the nested mapping a config file (and bench's --set) holds."""
     out: dict = {}
     for path, value in values.items():
-        d = out
-        parts = path.split(".")
-        for p in parts[:-1]:
-            d = d.setdefault(p, {})
-        d[parts[-1]] = value
+        set_dotted(out, path, value)
     return out
 
 
@@ -122,12 +119,12 @@ def load_space(path: str | Path | None, algo: str) -> SearchSpace:
                          f"{short(params)}")
     if len(params) > MAX_PARAMS:
         raise InputError(f"{where}: params: {len(params)} fields; at most {MAX_PARAMS}")
-    fields = _leaf_fields(algo)
+    fields = field_defaults(algo)
     out = tuple(_param(where, str(name), spec, fields, algo) for name, spec in params.items())
     return SearchSpace(algo, out, where)
 
 
-def _leaf_fields(algo: str) -> dict[str, Any]:
+def field_defaults(algo: str) -> dict[str, Any]:
     """Dotted field -> default of every leaf field of `algo`'s config."""
     from slam import registry
     from slam.fields import config_fields

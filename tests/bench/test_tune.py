@@ -11,6 +11,7 @@ from worlds.yamlio import InputError
 from bench.__main__ import main
 from bench.plan import load_config_checked
 from bench.tune import TuneSpec, load_space, tune
+from bench.tune.space import overrides_of
 from tests.bench.fakes import INTERRUPT
 
 TINY = str(Path(__file__).with_name("tiny_world.yaml"))
@@ -67,13 +68,7 @@ def test_every_shipped_space_loads_and_its_bounds_are_valid_configs(algo):
     assert len(space.params) >= 5
     for p in space.params:
         for v in ((p.low, p.high) if p.kind != "choice" else p.choices):
-            over: dict = {}
-            d = over
-            parts = p.path.split(".")
-            for part in parts[:-1]:
-                d = d.setdefault(part, {})
-            d[parts[-1]] = v
-            load_config_checked(algo, None, over)
+            load_config_checked(algo, None, overrides_of({p.path: v}))
 
 
 def test_a_tune_finds_a_better_config_and_judges_it_on_the_holdout(tmp_path):
