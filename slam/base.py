@@ -6,7 +6,9 @@ only ground truth it sees) and fed one scan at a time.
 
 Scan timing convention: `scan_t[i]` is the time of the first beam of revolution i; beam j
 is taken at scan_t[i] + j * meta.lidar.time_increment (0 when the log has no such field).
-The pose a SLAM returns for a scan is the robot (base) pose at scan_t[i].
+The pose a SLAM returns for a scan is the robot (base) pose at scan_t[i]. A scan reaches a
+real-time SLAM when its revolution ends, so the odometry and IMU of the revolution come with
+it (`OdomDelta.sweep_end`, `ImuWindow.sweep_gyro`).
 """
 from __future__ import annotations
 
@@ -45,10 +47,13 @@ class Scan:
 
 @dataclass(frozen=True, eq=False)
 class OdomDelta:
-    """Wheel odometry at this scan and the previous one (odometry frame poses, (3,) each)."""
+    """Wheel odometry at this scan and the previous one (odometry frame poses, (3,) each), and
+    at the scan's last beam (sweep_end: None when the odometry ends before it or the scan has
+    no beam timing)."""
 
     pose: np.ndarray
     prev_pose: np.ndarray
+    sweep_end: np.ndarray | None = None
 
     @property
     def delta(self) -> np.ndarray:
@@ -59,12 +64,14 @@ class OdomDelta:
 @dataclass(frozen=True, eq=False)
 class ImuWindow:
     """IMU samples in (previous scan time, this scan time]: t (K,), gyro (K,) rad/s,
-    accel (K, 2) m/s^2, yaw (K,) rad (integrated, as the TurtleBot3 IMU reports)."""
+    accel (K, 2) m/s^2, yaw (K,) rad (integrated, as the TurtleBot3 IMU reports); and the gyro
+    samples (rad/s) taken during the scan's revolution, (this scan time, its last beam]."""
 
     t: np.ndarray
     gyro: np.ndarray
     accel: np.ndarray
     yaw: np.ndarray
+    sweep_gyro: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
 
 class Slam(ABC):

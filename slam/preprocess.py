@@ -14,10 +14,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from slam._kernels.beams import scan_points
-from slam.base import ImuWindow, Scan
+from slam.base import ImuWindow, OdomDelta, Scan
 from slam.pose import relative
 
-__all__ = ["PreprocessConfig", "ScanPoints", "preprocess", "twist_from_poses", "yaw_rate_from_imu"]
+__all__ = ["PreprocessConfig", "ScanPoints", "preprocess", "twist_from_poses", "yaw_rate_from_imu",
+           "sweep_twist"]
 
 _NO_TWIST = np.zeros(3)
 
@@ -86,3 +87,28 @@ def yaw_rate_from_imu(imu: ImuWindow | None) -> float | None:
     if imu is None or len(imu.gyro) == 0:
         return None
     return float(np.mean(imu.gyro))
+
+
+def sweep_twist(scan: Scan, odom: OdomDelta | None, imu: ImuWindow | None,
+                fallback: np.ndarray | None) -> np.ndarray | None:
+    """(3,) twist of the robot during the scan's own revolution, for de-skewing it: translation
+    from the odometry over the revolution, rotation from the gyro samples taken in it (else the
+    odometry's); a part neither measured comes from `fallback` (the caller's estimate, e.g. the
+    motion since the previous scan), which is returned as it is when neither was measured.
+
+    The motion before the scan is a lagging guess in a turn that starts or reverses; the first
+    scan of a run has none. Pass odom=None or imu=None to leave a sensor out.
+    """
+    span = scan.time_increment * max(len(scan.ranges) - 1, 0)
+    odom_twist = (twist_from_poses(odom.pose, odom.sweep_end, span)
+                  if span > 0 and odom is not None and odom.sweep_end is not None else None)
+    gyro = imu.sweep_gyro if imu is not None and span > 0 else ()
+    if odom_twist is None and len(gyro) == 0:
+        return fallback
+    if odom_twist is not None:
+        twist = odom_twist
+    else:
+        twist = np.zeros(3) if fallback is None else np.array(fallback, dtype=np.float64)
+    if len(gyro):
+        twist[2] = float(np.mean(gyro))
+    return twist

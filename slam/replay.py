@@ -34,20 +34,31 @@ def scans_of(log: SensorLog) -> list[Scan]:
 
 def _iter_inputs(log: SensorLog):
     """Yield (scan, odom, imu, true_pose) for every scan of the log, in time order."""
-    odom_at = (interpolate_poses(log.scan_t, log.odom_t, log.odom_pose)
-               if log.has_odometry else None)
+    scans = scans_of(log)
+    # the revolution's last beam: its odometry and gyro come with the scan
+    sweep_end_t = log.scan_t + np.array([s.time_increment * max(len(s.ranges) - 1, 0) for s in scans])
+    timed = sweep_end_t > log.scan_t
+    odom_at = odom_end = None
+    if log.has_odometry:
+        odom_at = interpolate_poses(log.scan_t, log.odom_t, log.odom_pose)
+        odom_end = interpolate_poses(sweep_end_t, log.odom_t, log.odom_pose)
+        timed_odom = timed & (sweep_end_t <= log.odom_t[-1])
     gt_at = interpolate_poses(log.scan_t, log.gt_t, log.gt_pose) if log.has_ground_truth else None
     imu_idx = np.searchsorted(log.imu_t, log.scan_t, side="right") if log.has_imu else None
-    for i, scan in enumerate(scans_of(log)):
+    imu_end = np.searchsorted(log.imu_t, sweep_end_t, side="right") if log.has_imu else None
+    for i, scan in enumerate(scans):
         t = scan.t
         odom = None
         if odom_at is not None:
-            odom = OdomDelta(odom_at[i], odom_at[i - 1] if i > 0 else odom_at[i])
+            odom = OdomDelta(odom_at[i], odom_at[i - 1] if i > 0 else odom_at[i],
+                             odom_end[i] if timed_odom[i] else None)
         imu = None
         if imu_idx is not None:
             lo = imu_idx[i - 1] if i > 0 else np.searchsorted(log.imu_t, t - 0.2, side="right")
             hi = imu_idx[i]
-            imu = ImuWindow(log.imu_t[lo:hi], log.imu_gyro[lo:hi], log.imu_accel[lo:hi], log.imu_yaw[lo:hi])
+            sweep = log.imu_gyro[hi:imu_end[i]] if timed[i] else log.imu_gyro[:0]
+            imu = ImuWindow(log.imu_t[lo:hi], log.imu_gyro[lo:hi], log.imu_accel[lo:hi], log.imu_yaw[lo:hi],
+                            sweep)
         yield scan, odom, imu, (gt_at[i] if gt_at is not None else None)
 
 

@@ -19,7 +19,7 @@ from slam.gn.motion import Prediction, predict
 from slam.gn.priors import degenerate_direction, motion_prior, surface_normals
 from slam.output_map import OutputMap
 from slam.pose import relative, transform_points
-from slam.preprocess import ScanPoints, preprocess
+from slam.preprocess import ScanPoints, preprocess, sweep_twist
 
 __all__ = ["GaussNewtonSlam"]
 
@@ -53,14 +53,16 @@ class GaussNewtonSlam(Slam):
         4. update the map levels once the robot moved far enough; 5. insert it into the
         output map at the matched pose."""
         prediction = predict(self.config, self.pose, self._times, self._poses, scan.t, imu)
-        pts = preprocess(scan, self.config.preprocess, prediction.twist)
+        # the gyro of the scan's own revolution turns the de-skew (no wheel odometry here)
+        twist = sweep_twist(scan, None, imu if self.config.use_imu else None, prediction.twist)
+        pts = preprocess(scan, self.config.preprocess, twist)
         if self._last_update_pose is not None and len(pts.points):
             self.pose = self._match(pts, prediction, imu)
         else:
             self.pose = prediction.pose
         if self._map_update_due():
             self._update_maps(pts)
-        self.output.insert(scan, self.pose, prediction.twist)
+        self.output.insert(scan, self.pose, twist)
         self._times.append(scan.t)
         self._poses.append(self.pose.copy())
         return self.pose

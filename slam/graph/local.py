@@ -78,7 +78,12 @@ class LocalSlam:
                                     free_range=cfg.missing_data_ray_length)
 
     def _predict(self, scan: Scan, odom: OdomDelta | None, imu: ImuWindow | None) -> tuple[np.ndarray, np.ndarray]:
-        """(predicted pose (3,) with unwrapped yaw near the last one, twist (3,) for de-skew)."""
+        """(predicted pose (3,) with unwrapped yaw near the last one, twist (3,) for de-skew).
+
+        The twist is the extrapolated motion since the last scan, not the odometry and gyro of
+        the scan's own revolution (slam.preprocess.sweep_twist) that pf and gn de-skew with:
+        with those, this local SLAM was no better over 140 runs of the dev and hold-out
+        suites (ATE +0.4 +- 0.4 mm, 58 of 140 runs better)."""
         if self.t is None:
             return self.pose.copy(), np.zeros(3)
         dt = scan.t - self.t

@@ -18,7 +18,7 @@ from slam.pf.motion import (effective_sample_size, motion_std, normalized_weight
 from slam.pf.proposal import propose
 from slam.pf.tree import TrajectoryTree
 from slam.pose import compose, relative
-from slam.preprocess import PreprocessConfig, preprocess, twist_from_poses
+from slam.preprocess import PreprocessConfig, preprocess, sweep_twist, twist_from_poses
 
 __all__ = ["ParticleFilterSlam"]
 
@@ -95,7 +95,8 @@ class ParticleFilterSlam(Slam):
         to the lidar, the lidar origin (2,), and all beam ends (M, 2) with hit flags (M,)."""
         c = self.config
         dt = scan.t - self._scans[-1].t if self._scans else 0.0
-        twist = twist_from_poses(odom.prev_pose, odom.pose, dt) if dt > 0 else None
+        # de-skew with the odometry of the scan's revolution (Gmapping takes no IMU)
+        twist = sweep_twist(scan, odom, None, twist_from_poses(odom.prev_pose, odom.pose, dt) if dt > 0 else None)
         pts = preprocess(scan, self.pre, twist)
         o = pts.origin
         r = np.linalg.norm(pts.points - o, axis=1)

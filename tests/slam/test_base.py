@@ -31,6 +31,21 @@ def test_inputs_carry_timing_offset_and_imu_windows(log):
     assert truth.shape == (3,)
 
 
+def test_inputs_carry_the_odometry_and_gyro_of_each_revolution(log):
+    """A scan arrives when its revolution ends: the odometry at its last beam and the gyro
+    samples taken while it turned come with it; past the odometry's end there is none."""
+    from slam.pose import interpolate_poses
+    items = list(_iter_inputs(log))
+    scan, odom, imu, _ = items[3]
+    end = scan.t + 359 * scan.time_increment
+    np.testing.assert_allclose(odom.sweep_end, interpolate_poses(np.array([end]), log.odom_t, log.odom_pose)[0])
+    in_sweep = (log.imu_t > scan.t) & (log.imu_t <= end)
+    np.testing.assert_array_equal(imu.sweep_gyro, log.imu_gyro[in_sweep])
+    assert len(imu.sweep_gyro) == 19      # 100 Hz from the first beam to the last (0.1994 s)
+    late = log.odom_t[-1] < log.scan_t + 359 * scan.time_increment
+    assert all((o.sweep_end is None) == bool(lt) for (_, o, _, _), lt in zip(items, late))
+
+
 def test_stats_and_trajectory(log):
     res = run_algorithm("gn", log)
     assert res.stats["scans_processed"] == log.n_scans

@@ -2,11 +2,11 @@
 import numpy as np
 import pytest
 
-from slam.base import Scan
+from slam.base import ImuWindow, OdomDelta, Scan
 from slam._kernels.beams import _median_step, motion_during, scan_points, scan_points_ref
 from slam._kernels.smooth import smooth_ranges
-from slam.preprocess import PreprocessConfig, preprocess, twist_from_poses
-from slam.pose import compose, transform_points
+from slam.preprocess import PreprocessConfig, preprocess, sweep_twist, twist_from_poses
+from slam.pose import compose
 
 ANGLES = np.linspace(0, 2 * np.pi, 8, endpoint=False)
 
@@ -117,3 +117,35 @@ def test_median_step_is_numpys_median_of_the_steps(kind):
         angles = np.cumsum(steps) if kind != "shuffled" else steps
         want = float(np.median(np.diff(angles))) if n > 1 else 0.0
         assert _median_step(angles) == want
+
+
+def _imu(sweep_gyro=()):
+    z = np.zeros(0)
+    return ImuWindow(z, z, np.zeros((0, 2)), z, np.asarray(sweep_gyro, float))
+
+
+def test_sweep_twist_is_the_motion_measured_during_the_revolution():
+    scan = _scan([1.0] * 8, t_inc=0.2 / 7)    # last beam 0.2 s after the first
+    lagged = np.array([0.0, 0.0, -0.5])        # the motion before the scan: turning the other way
+    odom = OdomDelta(np.array([1.0, 2.0, 0.0]), np.array([1.0, 2.0, 0.1]), np.array([1.02, 2.0, 0.1]))
+    # translation and rotation from the odometry over the revolution
+    np.testing.assert_allclose(sweep_twist(scan, odom, None, lagged), twist_from_poses(odom.pose, odom.sweep_end, 0.2))
+    # the gyro's samples in the revolution turn it, the odometry moves it
+    tw = sweep_twist(scan, odom, _imu([0.7, 0.9]), lagged)
+    np.testing.assert_allclose(tw[2], 0.8)
+    np.testing.assert_allclose(tw[:2], twist_from_poses(odom.pose, odom.sweep_end, 0.2)[:2])
+    # gyro alone: the caller's translation, the gyro's rotation
+    np.testing.assert_allclose(sweep_twist(scan, None, _imu([0.4]), np.array([0.1, 0.0, -0.5])), [0.1, 0.0, 0.4])
+    np.testing.assert_allclose(sweep_twist(scan, None, _imu([0.4]), None), [0.0, 0.0, 0.4])
+
+
+def test_sweep_twist_falls_back_when_the_revolution_was_not_measured():
+    lagged = np.array([0.1, 0.0, 0.2])
+    no_end = OdomDelta(np.zeros(3), np.zeros(3), None)
+    timed = _scan([1.0] * 8, t_inc=0.2 / 7)
+    assert sweep_twist(timed, no_end, _imu(), lagged) is lagged
+    assert sweep_twist(timed, None, None, None) is None
+    # a scan without beam timing has no revolution to measure
+    untimed = _scan([1.0] * 8)
+    odom = OdomDelta(np.zeros(3), np.zeros(3), np.array([0.1, 0.0, 0.0]))
+    assert sweep_twist(untimed, odom, _imu([1.0]), lagged) is lagged
