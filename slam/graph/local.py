@@ -15,7 +15,7 @@ import numpy as np
 
 from slam.base import ImuWindow, OdomDelta, Scan
 from slam.pose import compose, relative, transform_points, wrap_angle
-from slam.preprocess import PreprocessConfig, preprocess
+from slam.preprocess import PreprocessConfig, preprocess, yaw_rate_from_imu
 from slam.graph.config import LocalConfig, MotionFilterConfig
 from slam.graph.filters import adaptive_voxel_filter, voxel_filter
 from slam.graph.scan_matching import ceres_match, range_weights, real_time_correlative_match
@@ -97,7 +97,7 @@ class LocalSlam:
             delta = np.zeros(3)
         if self.cfg.use_imu_data and imu is not None and len(imu.gyro):
             delta = delta.copy()
-            delta[2] = float(np.mean(imu.gyro)) * dt
+            delta[2] = yaw_rate_from_imu(imu, self.t, scan.t) * dt
         pred = compose(self.pose, delta)
         pred[2] = self.pose[2] + wrap_angle(pred[2] - self.pose[2])
         twist = delta / dt if dt > 0 else np.zeros(3)

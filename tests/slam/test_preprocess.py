@@ -5,7 +5,7 @@ import pytest
 from slam.base import ImuWindow, OdomDelta, Scan
 from slam._kernels.beams import _median_step, motion_during, scan_points, scan_points_ref
 from slam._kernels.smooth import smooth_ranges
-from slam.preprocess import PreprocessConfig, preprocess, sweep_twist, twist_from_poses
+from slam.preprocess import PreprocessConfig, preprocess, sweep_twist, twist_from_poses, yaw_rate_from_imu
 from slam.pose import compose
 
 ANGLES = np.linspace(0, 2 * np.pi, 8, endpoint=False)
@@ -149,3 +149,27 @@ def test_sweep_twist_falls_back_when_the_revolution_was_not_measured():
     untimed = _scan([1.0] * 8)
     odom = OdomDelta(np.zeros(3), np.zeros(3), np.array([0.1, 0.0, 0.0]))
     assert sweep_twist(untimed, odom, _imu([1.0]), lagged) is lagged
+
+
+
+def test_yaw_rate_from_imu_integrates_by_timestamps():
+    """A jerky turn read by a 100 Hz gyro whose timestamps are multiples of a 5 ms physics
+    step, in 0.2 s windows (t0, t1] of a 5 Hz lidar: float edges give windows of 19, 20 and 21
+    samples. Integrated by their timestamps the windows add up to the samples' integral over
+    the whole turn, however the samples fell; the plain means of the windows do not."""
+    imu_t = (np.arange(0, 801) * 0.005)[::2]              # every second 5 ms physics step
+    imu_w = 0.2 + 0.7 * np.sin(2 * np.pi * imu_t / 0.45 + 0.3)
+    edges = np.arange(21) / 5.0                           # scans at 5 Hz
+    whole = float(np.sum(imu_w[1:] * np.diff(imu_t)))     # each rate held since the sample before
+    counts, by_time, by_mean = [], 0.0, 0.0
+    for t0, t1 in zip(edges[:-1], edges[1:]):
+        m = (imu_t > t0) & (imu_t <= t1)
+        win = ImuWindow(imu_t[m], imu_w[m], np.zeros((m.sum(), 2)), np.zeros(m.sum()))
+        counts.append(int(m.sum()))
+        by_time += yaw_rate_from_imu(win, t0, t1) * (t1 - t0)
+        by_mean += float(np.mean(imu_w[m])) * (t1 - t0)
+    assert {19, 21} <= set(counts)
+    assert abs(by_time - whole) < 1e-3 * abs(whole)
+    assert abs(by_mean - whole) > 10 * abs(by_time - whole)
+    assert yaw_rate_from_imu(None, 0.0, 0.2) is None
+    assert yaw_rate_from_imu(win, 0.2, 0.2) == pytest.approx(float(np.mean(win.gyro)))
