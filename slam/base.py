@@ -44,6 +44,11 @@ class Scan:
     index: int = 0
     range_noise: RangeNoise = DEFAULT_RANGE_NOISE
 
+    @property
+    def sweep_time(self) -> float:
+        """s from the first beam to the last (0 without beam timing)."""
+        return self.time_increment * max(len(self.ranges) - 1, 0)
+
 
 @dataclass(frozen=True, eq=False)
 class OdomDelta:

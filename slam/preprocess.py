@@ -110,7 +110,7 @@ def sweep_twist(scan: Scan, odom: OdomDelta | None, imu: ImuWindow | None,
     The motion before the scan is a lagging guess in a turn that starts or reverses; the first
     scan of a run has none. Pass odom=None or imu=None to leave a sensor out.
     """
-    span = scan.time_increment * max(len(scan.ranges) - 1, 0)
+    span = scan.sweep_time
     odom_twist = (twist_from_poses(odom.pose, odom.sweep_end, span)
                   if span > 0 and odom is not None and odom.sweep_end is not None else None)
     gyro = imu.sweep_gyro if imu is not None and span > 0 else ()

@@ -36,7 +36,7 @@ def _iter_inputs(log: SensorLog):
     """Yield (scan, odom, imu, true_pose) for every scan of the log, in time order."""
     scans = scans_of(log)
     # the revolution's last beam: its odometry and gyro come with the scan
-    sweep_end_t = log.scan_t + np.array([s.time_increment * max(len(s.ranges) - 1, 0) for s in scans])
+    sweep_end_t = log.scan_t + np.array([s.sweep_time for s in scans])
     timed = sweep_end_t > log.scan_t
     odom_at = odom_end = None
     if log.has_odometry:

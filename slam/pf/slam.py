@@ -96,7 +96,8 @@ class ParticleFilterSlam(Slam):
         c = self.config
         dt = scan.t - self._scans[-1].t if self._scans else 0.0
         # de-skew with the odometry of the scan's revolution (Gmapping takes no IMU)
-        twist = sweep_twist(scan, odom, None, twist_from_poses(odom.prev_pose, odom.pose, dt) if dt > 0 else None)
+        before = twist_from_poses(odom.prev_pose, odom.pose, dt) if dt > 0 else None
+        twist = sweep_twist(scan, odom, None, before)
         pts = preprocess(scan, self.pre, twist)
         o = pts.origin
         r = np.linalg.norm(pts.points - o, axis=1)

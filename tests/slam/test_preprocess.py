@@ -151,7 +151,6 @@ def test_sweep_twist_falls_back_when_the_revolution_was_not_measured():
     assert sweep_twist(untimed, odom, _imu([1.0]), lagged) is lagged
 
 
-
 def test_yaw_rate_from_imu_integrates_by_timestamps():
     """A jerky turn read by a 100 Hz gyro whose timestamps are multiples of a 5 ms physics
     step, in 0.2 s windows (t0, t1] of a 5 Hz lidar: float edges give windows of 19, 20 and 21

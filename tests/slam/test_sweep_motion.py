@@ -4,6 +4,7 @@ revolution, so the turn does not bend the start of the map (noise-free ranges)."
 import numpy as np
 import pytest
 
+from slam.pose import interpolate_poses
 from slam.replay import run_algorithm
 
 from tests.slam.synthlog import box_room_segments, make_log
@@ -22,8 +23,7 @@ def turning_start():
 def test_a_turn_at_the_start_does_not_bend_the_trajectory(turning_start, algo, max_err_m, max_yaw_deg):
     log = turning_start
     res = run_algorithm(algo, log, seed=0)
-    gt = np.array([np.interp(log.scan_t, log.gt_t, np.unwrap(log.gt_pose[:, i]) if i == 2 else log.gt_pose[:, i])
-                   for i in range(3)]).T
+    gt = interpolate_poses(log.scan_t, log.gt_t, log.gt_pose)
     err = np.hypot(*(res.poses[-1, :2] - gt[-1, :2]))
     yaw = np.degrees(abs((res.poses[-1, 2] - gt[-1, 2] + np.pi) % (2 * np.pi) - np.pi))
     assert err < max_err_m and yaw < max_yaw_deg, (err, yaw)
