@@ -149,7 +149,7 @@ class LocalConfig:
     adaptive_voxel_filter: AdaptiveVoxelConfig = field(default_factory=AdaptiveVoxelConfig)
     real_time_correlative_scan_matcher: RealTimeCorrelativeConfig = field(
         default_factory=RealTimeCorrelativeConfig)
-    # ours: the pulls to the prediction 30 and 8 times the grid term's weight, not 10 and 40
+    # ours: the pulls to the prediction 50 and 55 times the grid term's weight, not 10 and 40
     # times: along a corridor the grid pins nothing and the odometry's prediction is the better
     # guide. These weights, match_near_range and the pose graph's matcher weights were chosen by
     # `bench tune` on generated offices and warehouses and held on unseen seeds
