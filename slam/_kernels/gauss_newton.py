@@ -93,7 +93,7 @@ def _solve3(H, g):
 
 
 @njit(cache=True, nogil=True)
-def _add_prior(H, g, est, prior, prior_info):
+def add_prior(H, g, est, prior, prior_info):
     """Adds d^T prior_info d, d = prior - est (yaw difference wrapped), to the normal
     equations in place; returns that cost."""
     d = prior - est
@@ -118,7 +118,7 @@ def gn_update(H, g, est, prior, prior_info, max_angle_step):
     still steps when the prior pins the other."""
     if H[0, 0] == 0.0 and H[1, 1] == 0.0:
         return False
-    _add_prior(H, g, est, prior, prior_info)
+    add_prior(H, g, est, prior, prior_info)
     step, ok = _solve3(H, g)
     if not ok:
         return False
@@ -145,7 +145,7 @@ def gn_iterate(prob, grid_meta, pts_robot, pose, iterations, max_angle_step, pri
         if not gn_update(H, g, est, prior, prior_info, max_angle_step):
             break
     H, g, cost = gn_normal_equations(prob, grid_meta, pts_robot, est, normals)
-    return est, cost + _add_prior(H, g, est, prior, prior_info)
+    return est, cost + add_prior(H, g, est, prior, prior_info)
 
 
 def gn_iterate_ref(prob, grid_meta, pts_robot, pose, iterations, max_angle_step, prior=None,

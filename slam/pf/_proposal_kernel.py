@@ -1,7 +1,9 @@
 """The improved proposal of every particle in one compiled loop (see slam/pf/proposal.py): per
 particle, its map patch around its pose is read once; Gmapping's hill climb on it, the
 Gauss-Newton refinement from there when the match is good enough, then the proposal's
-moments around the result.
+moments around the result: its mean and weight from Gmapping's sampled likelihood, its
+covariance the inverse of the refinement's information (the Laplace approximation; the sampled
+covariance where the refinement did not run or its information is singular).
 
 propose_particles: compiled; propose_particles_ref: the same loop in Python over the
 single-particle kernels, for tests (box_patch: a patch in arrays of its own).
@@ -13,7 +15,7 @@ from numba import njit
 
 from slam.pf._map_kernel import patch_box, read_patch
 from slam.pf._match_kernel import hill_climb, proposal_moments
-from slam.pf._refine_kernel import mean_hit_iterate
+from slam.pf._refine_kernel import line_iterate
 
 __all__ = ["propose_particles", "propose_particles_ref", "box_patch"]
 
@@ -58,13 +60,18 @@ def propose_particles(tables, pool, grid_meta, poses, prior_mean, prior_std, hit
         pr, hc, mo, corner, meta = _patch(tables, pool, grid_meta, p, poses[p], half, box, prob,
                                           hit_count, mean_off)
         start, score = hill_climb(pr, mo, corner, grid_meta, poses[p], hits, frees, params)
+        refined = score > minimum_score and gn_iterations > 0
+        info = np.zeros((3, 3))
         if not score > minimum_score:
             start = poses[p].copy()
-        elif gn_iterations > 0:
-            start = mean_hit_iterate(pr, hc, mo, meta, hits, start, gn_iterations,
-                                     gn_max_angle_step, prior_mean[p], prior_info)
+        elif refined:
+            start, info = line_iterate(pr, hc, mo, meta, params[3], int(params[4]), hits, frees,
+                                       start, gn_iterations, gn_max_angle_step, prior_mean[p],
+                                       prior_info)
         mu, cov, log_eta[p] = proposal_moments(pr, mo, corner, grid_meta, start, prior_mean[p],
                                                prior_std, hits, frees, params)
+        if refined and np.linalg.det(info) > 0.0:
+            cov = np.linalg.inv(info)
         for a in range(3):  # element writes: see _match_kernel._copy3
             means[p, a] = mu[a]
             for b in range(3):
@@ -94,12 +101,17 @@ def propose_particles_ref(tables, pool, grid_meta, poses, prior_mean, prior_std,
         prob, hits_n, mean_off, meta = box_patch(tables[p], pool, grid_meta, box)
         start, score = hill_climb(prob, mean_off, box[:2], grid_meta, poses[p], hits, frees,
                                   params)
+        info = None
         if score <= minimum_score:
             start = poses[p].copy()
         elif gn_iterations > 0:
-            start = mean_hit_iterate(prob, hits_n, mean_off, meta, hits, start, gn_iterations,
-                                     gn_max_angle_step, prior_mean[p], np.diag(gn_prior_w))
-        out.append(proposal_moments(prob, mean_off, box[:2], grid_meta, start, prior_mean[p],
-                                    prior_std, hits, frees, params))
+            start, info = line_iterate(prob, hits_n, mean_off, meta, params[3], int(params[4]),
+                                       hits, frees, start, gn_iterations, gn_max_angle_step,
+                                       prior_mean[p], np.diag(gn_prior_w))
+        mu, cov, log_eta = proposal_moments(prob, mean_off, box[:2], grid_meta, start,
+                                            prior_mean[p], prior_std, hits, frees, params)
+        if info is not None and np.linalg.det(info) > 0.0:
+            cov = np.linalg.inv(info)
+        out.append((mu, cov, log_eta))
     return (np.array([o[0] for o in out]), np.array([o[1] for o in out]),
             np.array([o[2] for o in out]))

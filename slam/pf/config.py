@@ -51,8 +51,9 @@ class MatcherConfig:
     llsamplestep: float = 0.0015625   # llsamplestep: proposal grid step in x and y (m)
     lasamplerange: float = 0.0015625  # lasamplerange: proposal grid half-width in yaw (rad)
     lasamplestep: float = 0.0015625   # lasamplestep: proposal grid step in yaw (rad)
-    # not in Gmapping: Gauss-Newton steps from the hill climb's pose on the particle's
-    # reflectance map, read with each cell's ridge at its mean hit point (0 = the hill climb alone)
+    # not in Gmapping: Gauss-Newton steps from the hill climb's pose on the point-to-line
+    # distances to the walls of the particle's mean hit points; their information is the
+    # proposal's covariance (0 = the hill climb alone, the sampled covariance)
     gn_iterations: int = 5
     gn_max_angle_step: float = 0.2  # rad, clamp of one step's rotation (Hector's)
     # pull towards the motion prior's mean: cost per squared prior standard deviation

@@ -1,14 +1,15 @@
 """The improved proposal of the particle filter (Grisetti, Stachniss, Burgard 2007, Sec. IV):
 per particle, scan matching on its own map (Gmapping's hill climb, then Gauss-Newton steps on
-the map read as a reflectance map), a Gaussian fitted to likelihood x motion prior on a small
-grid around the matched pose, the new pose drawn from it and the weight multiplied by its
-normaliser eta."""
+the point-to-line distances to the walls of its mean hit points), a Gaussian around the matched
+pose (mean and normaliser eta from likelihood x motion prior on a small grid, covariance the
+inverse of the refinement's information), the new pose drawn from it and the weight
+multiplied by eta."""
 from __future__ import annotations
 
 import numpy as np
 
 from slam.pf._proposal_kernel import box_patch, propose_particles
-from slam.pf._refine_kernel import mean_hit_iterate
+from slam.pf._refine_kernel import line_iterate
 from slam.pf.config import PfConfig
 from slam.pf.maps import TiledMaps
 from slam.pose import wrap_angle
@@ -16,24 +17,25 @@ from slam.pose import wrap_angle
 __all__ = ["refine_pose", "propose"]
 
 
-def refine_pose(maps: TiledMaps, p: int, box: np.ndarray, points: np.ndarray, pose: np.ndarray,
-                iterations: int, max_angle_step: float, prior: np.ndarray,
-                prior_w: np.ndarray) -> np.ndarray:
-    """Hector's Gauss-Newton steps on particle p's count map read as a reflectance map with
-    each cell's ridge at its mean hit point (slam/pf/_refine_kernel.py), as the proposal
-    runs them.
+def refine_pose(maps: TiledMaps, p: int, box: np.ndarray, hits: np.ndarray, frees: np.ndarray,
+                pose: np.ndarray, params: np.ndarray, iterations: int, max_angle_step: float,
+                prior: np.ndarray, prior_w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The proposal's Gauss-Newton steps on particle p's map (slam/pf/_refine_kernel.py).
 
-    box: (4,) the cells read (first row, column, rows, columns); points: (K, 2) scan end
-    points, robot frame, m; pose: (3,) start; prior (3,), prior_w (3,): the quadratic pull
-    towards the motion prior (weights per m^2, m^2, rad^2). Returns the refined (3,) pose.
+    box: (4,) the cells read (first row, column, rows, columns); hits, frees: (K, 2) scan end
+    points and their free points, robot frame, m; pose: (3,) start; params: the matcher's
+    (fullness and kernel are read); prior (3,), prior_w (3,): the quadratic pull towards the
+    motion prior (weights per m^2, m^2, rad^2). Returns the refined (3,) pose and its (3, 3)
+    information, prior included.
     """
-    prob, hits, mean_off, meta = box_patch(maps.tables[p], maps.pool, maps.grid_meta,
-                                           np.asarray(box, dtype=np.int64))
-    return mean_hit_iterate(prob, hits, mean_off, meta,
-                            np.ascontiguousarray(points, dtype=np.float64),
-                            np.asarray(pose, dtype=np.float64), int(iterations),
-                            float(max_angle_step), np.asarray(prior, dtype=np.float64),
-                            np.diag(np.asarray(prior_w, dtype=np.float64)))
+    prob, count, mean_off, meta = box_patch(maps.tables[p], maps.pool, maps.grid_meta,
+                                            np.asarray(box, dtype=np.int64))
+    return line_iterate(prob, count, mean_off, meta, float(params[3]), int(params[4]),
+                        np.ascontiguousarray(hits, dtype=np.float64),
+                        np.ascontiguousarray(frees, dtype=np.float64),
+                        np.asarray(pose, dtype=np.float64), int(iterations),
+                        float(max_angle_step), np.asarray(prior, dtype=np.float64),
+                        np.diag(np.asarray(prior_w, dtype=np.float64)))
 
 
 def propose(cfg: PfConfig, maps: TiledMaps, poses: np.ndarray, prior_mean: np.ndarray,

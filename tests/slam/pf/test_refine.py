@@ -1,13 +1,19 @@
-"""slam.pf._refine_kernel against its references; slam.pf.proposal.refine_pose, the
-Gauss-Newton refinement, recovering known offsets on a particle's map."""
+"""slam.pf._refine_kernel against its reference; slam.pf.proposal.refine_pose, the
+Gauss-Newton refinement, recovering known offsets on a particle's map, and its information."""
 import numpy as np
 import pytest
 
 from slam.pf._map_kernel import read_patch, read_patch_ref
-from slam.pf._refine_kernel import mean_hit_normal_equations, mean_hit_normal_equations_ref
+from slam.pf._refine_kernel import line_normal_equations, line_normal_equations_ref
 from slam.pf.proposal import refine_pose
 from slam.pf.maps import TiledMaps
-from tests.slam.pf.test_kernels import ORIGIN
+from tests.slam.pf.test_kernels import ORIGIN, PARAMS, _frees
+
+
+def _refine(maps, box, pts, start, prior, prior_w, iterations=10):
+    """refine_pose with the free points one cell before each end point."""
+    return refine_pose(maps, 0, box, pts, _frees(pts), start, PARAMS, iterations, 0.2, prior,
+                       prior_w)
 
 
 def _box_scan(rng, pose, beams=360, half=(1.6, 1.1), sigma=0.005):
@@ -42,7 +48,7 @@ def test_refinement_recovers_offsets_from_a_map_of_noisy_scans():
         truth = np.r_[rng.uniform(-0.4, 0.4), rng.uniform(-0.3, 0.3), rng.uniform(-np.pi, np.pi)]
         pts = _box_scan(rng, truth, sigma=0.01)
         start = truth + np.r_[rng.uniform(-0.04, 0.04, 2), np.radians(rng.uniform(-2, 2))]
-        est = refine_pose(maps, 0, box, pts, start, 10, 0.2, no_prior, no_prior)
+        est, _ = _refine(maps, box, pts, start, no_prior, no_prior)
         errors.append([np.hypot(*(est[:2] - truth[:2])), abs(est[2] - truth[2])])
     errors = np.array(errors)
     assert errors[:, 0].max() < 0.01
@@ -75,15 +81,20 @@ def test_prior_holds_the_unconstrained_direction():
     pts = corridor_scan(truth)
     start = truth + [0.0, -0.03, 0.01]
     prior_w = 3.0 / np.array([0.02, 0.02, 0.04]) ** 2
-    est = refine_pose(maps, 0, box, pts, start, 10, 0.2, truth, prior_w)
+    est, info = _refine(maps, box, pts, start, truth, prior_w)
     assert abs(est[0] - truth[0]) < 0.005       # held by the prior
     assert abs(est[1] - truth[1]) < 0.01        # set by the walls
     assert abs(est[2] - truth[2]) < np.radians(0.3)
+    # the proposal's spread: along the corridor mostly the prior (2 cm, weighted 3) holds the
+    # pose, across it the walls fix it to millimetres
+    std = np.sqrt(np.diag(np.linalg.inv(info)))
+    assert 0.5 * 0.02 / np.sqrt(3.0) < std[0] <= 0.02 / np.sqrt(3.0)
+    assert std[1] < 0.005 and std[0] > 2.0 * std[1]
 
 
 @pytest.mark.kernel
 @pytest.mark.parametrize("seed", range(3))
-def test_read_patch_and_mean_hit_normal_equations_match_references(seed):
+def test_read_patch_and_line_normal_equations_match_references(seed):
     rng = np.random.default_rng(seed)
     maps = TiledMaps(1, np.zeros(2), 2.0, 0.05, tile=8)
     for _ in range(3):
@@ -106,18 +117,20 @@ def test_read_patch_and_mean_hit_normal_equations_match_references(seed):
                      *prob.shape])
     pose = np.r_[rng.uniform(-0.2, 0.2, 2), rng.uniform(-np.pi, np.pi)]
     pts = _box_scan(rng, pose, beams=120, sigma=0.01)
-    H, g, cost = mean_hit_normal_equations(prob, hits, mean_off, meta, pts, pose)
-    H_ref, g_ref, cost_ref = mean_hit_normal_equations_ref(prob, hits, mean_off, meta, pts, pose)
+    frees = _frees(pts)
+    H, g, cost = line_normal_equations(prob, hits, mean_off, meta, 0.3, 1, pts, frees, pose)
+    H_ref, g_ref, cost_ref = line_normal_equations_ref(prob, hits, mean_off, meta, 0.3, 1, pts,
+                                                       frees, pose)
     np.testing.assert_allclose(H, H_ref, rtol=1e-6, atol=1e-6)
     np.testing.assert_allclose(g, g_ref, rtol=1e-6, atol=1e-6)
     assert cost == pytest.approx(cost_ref, rel=1e-9)
     assert np.abs(g).sum() > 0      # the scan does read the map
 
 
-def test_mean_hit_reading_puts_the_wall_at_its_face_not_its_cell_centre():
+def test_refinement_puts_the_wall_at_its_face_not_its_cell_centre():
     """A wall whose face lies 1.5 cm inside its cell (as in the rectangle worlds) is the only
-    thing fixing x: read at the cell centres the match ends about 1 cm towards the wall; read
-    at the mean hit points, within a few millimetres of the truth."""
+    thing fixing x: measured to the lines through the mean hit points, the match ends within a
+    few millimetres of the truth, not at the cell centre."""
     rng = np.random.default_rng(5)
     maps = TiledMaps(1, np.zeros(2), 5.0, 0.05, tile=16)
     half = (1.615, 1.115)       # faces at x = 1.615 (cell 1.60-1.65) and y = +-1.115
@@ -139,7 +152,7 @@ def test_mean_hit_reading_puts_the_wall_at_its_face_not_its_cell_centre():
         truth = np.array([rng.uniform(0.65, 0.85), rng.uniform(-0.1, 0.1), rng.uniform(-0.2, 0.2)])
         pts = scan(truth)
         start = truth + np.r_[rng.uniform(-0.02, 0.02, 2), 0.0]
-        est = refine_pose(maps, 0, box, pts, start, 10, 0.2, no_prior, no_prior)
+        est, _ = _refine(maps, box, pts, start, no_prior, no_prior)
         err.append(est[0] - truth[0])
     assert np.abs(np.mean(err)) < 0.003
     assert np.max(np.abs(err)) < 0.008
