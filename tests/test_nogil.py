@@ -9,7 +9,7 @@ KERNELS = {
     "slam._kernels.gauss_newton": ["gn_iterate", "gn_normal_equations"],
     "slam.pf._match_kernel": ["hill_climb", "proposal_moments"],
     "slam.pf._map_kernel": ["insert_scans", "tiles_bound", "patch_box", "read_patch"],
-    "slam.pf._refine_kernel": ["mean_hit_iterate"],
+    "slam.pf._refine_kernel": ["line_iterate", "line_normal_equations"],
     "slam.pf._proposal_kernel": ["propose_particles"],
     "slam.graph._match_kernel": ["match_lm"],
     "slam.graph._tsdf_kernel": ["tsdf_insert", "estimate_normals"],
