@@ -6,11 +6,16 @@ current relative pose estimate; a match scoring above min_score is refined by le
 on the submap grid (the constraint builder's own ceres_scan_matcher options) and becomes a
 loop-closure constraint with the loop_closure weights. Which pairs are tried is decided per
 submap by a fixed-ratio sampler, as Cartographer's FixedRatioSampler (deterministic).
-Ours: a match whose translation is pinned in one direction only (information ratio below
-min_information_ratio: a straight corridor, where any shift along it scores the same) is
-rejected, since its position along the corridor is a guess; so is a match through which the
-scan would see into space the submap knows to be free (see_through_ratio: the far faces of
-thin walls, mapped from their other side).
+Ours: a match whose translation is pinned in one direction only constrains only what it
+pins. That is a match whose information ratio is below min_information_ratio (a straight
+corridor, where any shift along it scores the same), or one with an ambiguity (another pose
+farther than ambiguity_radius scoring within ambiguity_margin) that lies along the match's
+weakest direction: its position along the corridor is a guess, its side position and heading
+are not, so its constraint weighs nothing along that direction (a lidar that looks forward
+down a corridor closes loops there only this way). An ambiguity in any other direction (a
+repeated room or shelf) rejects the match, as does a match through which the scan would see
+into space the submap knows to be free (see_through_ratio: the far faces of thin walls,
+mapped from their other side).
 """
 from __future__ import annotations
 
@@ -24,8 +29,14 @@ from slam.graph.config import ConstraintBuilderConfig
 from slam.graph.scan_matching import FastCorrelativeMatcher, angular_step, ceres_match
 from slam.graph.submaps import Submap
 
-__all__ = ["FixedRatioSampler", "LoopConstraint", "ConstraintBuilder", "information_ratio",
-           "see_through_ratio"]
+__all__ = ["FixedRatioSampler", "LoopConstraint", "ConstraintBuilder", "translation_information",
+           "information_ratio", "see_through_ratio"]
+
+# An ambiguity counts as a slide along the weak direction when it lies within this angle of it
+# and the weak direction's information is at most this share of the strong one's; otherwise
+# it is a repeat (a second door, a second shelf), not a corridor.
+_SLIDE_ANGLE = np.radians(10.0)
+_SLIDE_MAX_RATIO = 0.3
 
 
 class FixedRatioSampler:
@@ -46,12 +57,15 @@ class FixedRatioSampler:
 
 @dataclass(frozen=True)
 class LoopConstraint:
-    """Node `node` seen from submap `submap` at z (3,) (submap frame), with the match score."""
+    """Node `node` seen from submap `submap` at z (3,) (submap frame), with the match score;
+    slide_axis: for a match pinned across one direction only, that direction (rad from z's x
+    axis), along which the constraint weighs nothing; None: pinned in both."""
 
     submap: int
     node: int
     z: np.ndarray
     score: float
+    slide_axis: float | None = None
 
 
 class ConstraintBuilder:
@@ -62,7 +76,8 @@ class ConstraintBuilder:
         self.matchers: dict[int, FastCorrelativeMatcher] = {}
         self.samplers: dict[int, FixedRatioSampler] = {}
         self.attempts = 0
-        self.degenerate = 0
+        self.sliding = 0          # matches kept as slides along a corridor
+        self.ambiguous = 0        # matches rejected for an ambiguity across their weak direction
         self.see_through = 0
         self._step = (None, 0.0, 0.0)     # (points, resolution, angular step) of the last node matched
 
@@ -99,32 +114,54 @@ class ConstraintBuilder:
         res = matcher.meta[2]
         if self._step[0] is not points or self._step[1] != res:
             self._step = (points, res, angular_step(points, res))
-        found = matcher.match(points, initial, self.cfg.min_score, self.cfg.ambiguity_radius,
-                              self.cfg.ambiguity_margin, self._step[2])
+        found = matcher.search(points, initial, self.cfg.min_score, self.cfg.ambiguity_radius,
+                               self.cfg.ambiguity_margin, self._step[2])
         if found is None:
             return None
-        pose, score = found
+        pose, score, other = found
         prob, meta = submap.probabilities()
         refined = ceres_match(prob, meta, points, pose, pose, self.cfg.ceres_scan_matcher)
-        if self.cfg.min_information_ratio > 0:
-            if information_ratio(prob, meta, points, refined) < self.cfg.min_information_ratio:
-                self.degenerate += 1
+        ev, vec = np.linalg.eigh(translation_information(prob, meta, points, refined))
+        weak = vec[:, 0]
+        slides = self.cfg.min_information_ratio > 0 and ev[0] < self.cfg.min_information_ratio * ev[1]
+        if other is not None:
+            shift = other[:2] - pose[:2]
+            along = abs(shift @ weak) >= np.cos(_SLIDE_ANGLE) * np.hypot(*shift)
+            if not along or other[2] != pose[2] or ev[0] > _SLIDE_MAX_RATIO * ev[1]:
+                self.ambiguous += 1
                 return None
+            slides = True
+        if slides:
+            # Along the slide the search's pose is a guess that may lie far down the corridor,
+            # where a door or a corner would tilt the refined heading: refine again from the
+            # current estimate's place along it and the search's place across it.
+            across = np.array([-weak[1], weak[0]])
+            start = np.array([*(initial[:2] + ((pose[:2] - initial[:2]) @ across) * across), pose[2]])
+            refined = ceres_match(prob, meta, points, start, start, self.cfg.ceres_scan_matcher)
         if self.cfg.max_see_through_ratio > 0:
             ratio = see_through_ratio(submap, points, origin, refined, self.cfg.see_through_free_probability)
             if ratio > self.cfg.max_see_through_ratio:
                 self.see_through += 1
                 return None
-        return LoopConstraint(submap.index, node, relative(submap.local_pose, refined), score)
+        # weak is in the submap's grid frame; the constraint's axes turn with the node (z's yaw)
+        axis = float(np.arctan2(weak[1], weak[0]) - refined[2]) if slides else None
+        self.sliding += slides
+        return LoopConstraint(submap.index, node, relative(submap.local_pose, refined), score, axis)
+
+
+def translation_information(prob: np.ndarray, meta: np.ndarray, points: np.ndarray,
+                            pose: np.ndarray) -> np.ndarray:
+    """(2, 2) translation information sum(grad M grad M^T) of the points (N, 2, robot frame)
+    at `pose` on the grid (grid frame)."""
+    g = interp_value_grad(prob, meta, np.ascontiguousarray(transform_points(pose, points)))
+    return g[:, 1:].T @ g[:, 1:]
 
 
 def information_ratio(prob: np.ndarray, meta: np.ndarray, points: np.ndarray, pose: np.ndarray) -> float:
     """Smallest over largest eigenvalue of the translation information sum(grad M grad M^T)
     of the points (N, 2, robot frame) at `pose` on the grid: near 0 when the match slides
     freely along one direction (a featureless corridor), 1 when both are pinned."""
-    g = interp_value_grad(prob, meta, np.ascontiguousarray(transform_points(pose, points)))
-    info = g[:, 1:].T @ g[:, 1:]
-    ev = np.linalg.eigvalsh(info)
+    ev = np.linalg.eigvalsh(translation_information(prob, meta, points, pose))
     return float(ev[0] / ev[1]) if ev[1] > 0 else 0.0
 
 

@@ -47,6 +47,9 @@ class Constraints:
     order the caller chooses); z: (C, 3) pose of j in the frame of i (x, y m, yaw rad);
     w_t, w_r: (C,) translation (1/m) and rotation (1/rad) weights; robust: (C,) bool, Huber
     loss on this constraint (loop closures).
+    axis, w_t_across: an anisotropic translation weight: w_t along the direction `axis` (C,)
+    rad from z's x axis, w_t_across (C,) across it (a corridor match pins only its side
+    position). None: axis 0, w_t_across = w_t (isotropic).
     """
 
     i: np.ndarray
@@ -55,23 +58,37 @@ class Constraints:
     w_t: np.ndarray
     w_r: np.ndarray
     robust: np.ndarray
+    axis: np.ndarray | None = None
+    w_t_across: np.ndarray | None = None
 
     def __post_init__(self):
         n = len(np.asarray(self.i))
-        for name, shape in (("j", (n,)), ("z", (n, 3)), ("w_t", (n,)), ("w_r", (n,)), ("robust", (n,))):
+        if self.axis is None:
+            object.__setattr__(self, "axis", np.zeros(n))
+        if self.w_t_across is None:
+            object.__setattr__(self, "w_t_across", np.asarray(self.w_t))
+        for name, shape in (("j", (n,)), ("z", (n, 3)), ("w_t", (n,)), ("w_r", (n,)), ("robust", (n,)),
+                            ("axis", (n,)), ("w_t_across", (n,))):
             arr = np.asarray(getattr(self, name))
             if arr.shape != shape:
                 raise ValueError(f"Constraints.{name}: expected shape {shape}, got {arr.shape}")
 
 
 def spa_residuals(poses: np.ndarray, c: Constraints) -> np.ndarray:
-    """(C, 3) weighted errors of the constraints at `poses` ((P, 3) global poses)."""
-    return _residuals(poses, c, np.cos(c.z[:, 2]), np.sin(c.z[:, 2]))
+    """(C, 3) weighted errors of the constraints at `poses` ((P, 3) global poses): along
+    each constraint's axis, across it, in yaw."""
+    return _residuals(poses, c, *_axis_cos_sin(c))
+
+
+def _axis_cos_sin(c: Constraints) -> tuple[np.ndarray, np.ndarray]:
+    """Cosines and sines (C,) of each constraint's first residual axis in the frame of i."""
+    a = c.z[:, 2] + c.axis
+    return np.cos(a), np.sin(a)
 
 
 def _residuals(poses: np.ndarray, c: Constraints, ct: np.ndarray, st: np.ndarray) -> np.ndarray:
-    """spa_residuals with the measured yaws' cosines and sines ct, st (C,) given (the solver
-    evaluates the residuals of one problem many times)."""
+    """spa_residuals with the axes' cosines and sines ct, st (C,) given (_axis_cos_sin: the
+    solver evaluates the residuals of one problem many times)."""
     a, b = poses[c.i], poses[c.j]
     # relative(a, b) = compose(inverse(a), b), the operations of slam.pose on arrays
     ca, sa = np.cos(a[:, 2]), np.sin(a[:, 2])
@@ -84,7 +101,7 @@ def _residuals(poses: np.ndarray, c: Constraints, ct: np.ndarray, st: np.ndarray
     dy = iy + sb * b[:, 0] + cb * b[:, 1] - c.z[:, 1]
     out = np.empty((len(c.i), 3))
     out[:, 0] = c.w_t * (ct * dx + st * dy)
-    out[:, 1] = c.w_t * (-st * dx + ct * dy)
+    out[:, 1] = c.w_t_across * (-st * dx + ct * dy)
     out[:, 2] = c.w_r * wrap_angle(wrap_angle(ith + b[:, 2]) - c.z[:, 2])
     return out
 
@@ -97,16 +114,17 @@ def _jacobian_values(poses: np.ndarray, c: Constraints) -> np.ndarray:
     th = pi[:, 2]
     dtx = pj[:, 0] - pi[:, 0]
     dty = pj[:, 1] - pi[:, 1]
-    # ex = R(z)^T R(th_i)^T (t_j - t_i) - ...; R(z)^T R(th_i)^T = R(th_i + z_th)^T
-    ca, sa = np.cos(th + c.z[:, 2]), np.sin(th + c.z[:, 2])
-    wt, wr = c.w_t, c.w_r
+    # ex = R(a)^T R(th_i)^T (t_j - t_i) - ... with a = z_th + axis; R(a)^T R(th_i)^T = R(th_i + a)^T
+    a = th + c.z[:, 2] + c.axis
+    ca, sa = np.cos(a), np.sin(a)
+    wt, wc, wr = c.w_t, c.w_t_across, c.w_r
     out = np.empty((len(c.i), 12))
-    # d ex / d t_j = w_t * [ca, sa]; d ey / d t_j = w_t * [-sa, ca]; d/d th_i of
+    # d ex / d t_j = w_t * [ca, sa]; d ey / d t_j = w_t_across * [-sa, ca]; d/d th_i of
     # [ca*dtx + sa*dty, -sa*dtx + ca*dty]
     out[:, 0], out[:, 1], out[:, 2], out[:, 3] = wt * ca, wt * sa, -wt * ca, -wt * sa
     out[:, 4] = wt * (-sa * dtx + ca * dty)
-    out[:, 5], out[:, 6], out[:, 7], out[:, 8] = -wt * sa, wt * ca, wt * sa, -wt * ca
-    out[:, 9] = wt * (-ca * dtx - sa * dty)
+    out[:, 5], out[:, 6], out[:, 7], out[:, 8] = -wc * sa, wc * ca, wc * sa, -wc * ca
+    out[:, 9] = wc * (-ca * dtx - sa * dty)
     out[:, 10], out[:, 11] = wr, -wr
     return out
 
@@ -156,7 +174,7 @@ def optimize_poses(poses: np.ndarray, c: Constraints, fixed: np.ndarray | None =
         p[free_idx] += x.reshape(-1, 3)
         return p
 
-    ct, st = np.cos(c.z[:, 2]), np.sin(c.z[:, 2])
+    ct, st = _axis_cos_sin(c)
 
     def fun(x):
         return _residuals(current(x), c, ct, st).reshape(-1)

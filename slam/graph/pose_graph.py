@@ -110,7 +110,13 @@ class PoseGraph:
                              np.full(n_ch, op.local_slam_pose_rotation_weight),
                              np.full(n_lc, cb.loop_closure_rotation_weight)])
         rob = np.concatenate([np.zeros(n_in + n_ch, bool), np.ones(n_lc, bool)])
-        return Constraints(i, j, z, wt, wr, rob)
+        # a loop closure that slides along a corridor weighs nothing along its slide axis
+        slide = np.array([c.slide_axis is not None for c in self.loops], bool)
+        axis = np.zeros(len(i))
+        axis[n_in + n_ch:][slide] = [c.slide_axis for c in self.loops if c.slide_axis is not None]
+        across = wt.copy()
+        wt[n_in + n_ch:][slide] = 0.0
+        return Constraints(i, j, z, wt, wr, rob, axis, across)
 
     def optimize(self) -> None:
         """Sparse pose adjustment over all submaps and nodes; the first submap holds the gauge."""
@@ -132,7 +138,7 @@ class PoseGraph:
             ls = np.array([c.submap for c in self.loops], int)
             ln = np.array([c.node for c in self.loops], int)
             lz = np.array([c.z for c in self.loops], float)
-            err = np.hypot(*(relative(out[ls], out[ns + ln])[:, :2] - lz[:, :2]).T)
+            err = _loop_errors(relative(out[ls], out[ns + ln]), lz, self.loops)
             bad = err > op.max_loop_residual
             if not bad.any():
                 break
@@ -145,3 +151,15 @@ class PoseGraph:
         self.correction = compose(self.submap_global[last], inverse(self.submaps[last].local_pose))
         self.n_optimizations += 1
         self._loops_at_opt = len(self.loops)
+
+
+def _loop_errors(found: np.ndarray, z: np.ndarray, loops: list[LoopConstraint]) -> np.ndarray:
+    """(L,) m between the optimized relative poses `found` (L, 3) and the loop closures' z
+    (L, 3), in the submap frame; a sliding closure counts only the part across its axis."""
+    d = found[:, :2] - z[:, :2]
+    err = np.hypot(d[:, 0], d[:, 1])
+    for k, c in enumerate(loops):
+        if c.slide_axis is not None:
+            a = z[k, 2] + c.slide_axis
+            err[k] = abs(-np.sin(a) * d[k, 0] + np.cos(a) * d[k, 1])
+    return err

@@ -105,6 +105,16 @@ class FastCorrelativeMatcher:
         step: angular_step(points, resolution) when the caller has it (one node's points are
         matched against many submaps).
         """
+        found = self.search(points, pose, min_score, ambiguity_radius, ambiguity_margin, step)
+        if found is None or found[2] is not None:
+            return None
+        return found[0], found[1]
+
+    def search(self, points: np.ndarray, pose: np.ndarray, min_score: float, ambiguity_radius: float = 0.0,
+               ambiguity_margin: float = 0.0, step: float | None = None
+               ) -> tuple[np.ndarray, float, np.ndarray | None] | None:
+        """match() that keeps an ambiguous match: (best pose, score, the best pose farther than
+        ambiguity_radius that scores within ambiguity_margin of it, or None) or None."""
         if len(points) == 0:
             return None
         step, n_ang, w = _window(points, self.meta, self.cfg.linear_search_window,
@@ -114,11 +124,12 @@ class FastCorrelativeMatcher:
         k, dx, dy, score = bnb_search(self.grids, self.margin, cells, w, w, float(min_score), 0, 0, -1)
         if k < 0:
             return None
-        if ambiguity_radius > 0:
-            r = int(math.ceil(ambiguity_radius / self.meta[2]))
-            k2, *_ = bnb_search(self.grids, self.margin, cells, w, w, float(score - ambiguity_margin),
-                                dx, dy, r)
-            if k2 >= 0:
-                return None
         res = self.meta[2]
-        return np.array([pose[0] + dx * res, pose[1] + dy * res, pose[2] + offsets[k]]), float(score)
+        other = None
+        if ambiguity_radius > 0:
+            r = int(math.ceil(ambiguity_radius / res))
+            k2, dx2, dy2, _ = bnb_search(self.grids, self.margin, cells, w, w, float(score - ambiguity_margin),
+                                         dx, dy, r)
+            if k2 >= 0:
+                other = np.array([pose[0] + dx2 * res, pose[1] + dy2 * res, pose[2] + offsets[k2]])
+        return np.array([pose[0] + dx * res, pose[1] + dy * res, pose[2] + offsets[k]]), float(score), other

@@ -80,4 +80,6 @@ class GraphSlam(Slam):
                 "loop_closure_attempts": self.graph.builder.attempts,
                 "loop_closures_rejected": self.graph.rejected,
                 "loop_closures_see_through": self.graph.builder.see_through,
+                "loop_closures_sliding": sum(c.slide_axis is not None for c in self.graph.loops),
+                "loop_closures_ambiguous": self.graph.builder.ambiguous,
                 "optimizations": self.graph.n_optimizations}

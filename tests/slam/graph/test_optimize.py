@@ -28,9 +28,14 @@ def _graph(truth, rng, sigma_t=0.02, sigma_r=0.01, loops=((0, -1),), wrong=()):
                        np.array(robust))
 
 
-def test_jacobian_matches_finite_differences(rng):
+@pytest.mark.parametrize("anisotropic", [False, True])
+def test_jacobian_matches_finite_differences(rng, anisotropic):
     truth = _ring(6)
     c = _graph(truth, rng, loops=((0, 3), (1, 5)))
+    if anisotropic:
+        k = len(c.i)
+        c = Constraints(c.i, c.j, c.z, c.w_t, c.w_r, c.robust, rng.uniform(-np.pi, np.pi, k),
+                        rng.uniform(0, 100, k))
     poses = truth + rng.normal(0, 0.1, truth.shape)
     free_col = np.arange(len(poses))
     J = _jacobian(poses, c, free_col, len(poses)).toarray()
@@ -41,6 +46,26 @@ def test_jacobian_matches_finite_differences(rng):
         p1 = poses + d.reshape(-1, 3); p0 = poses - d.reshape(-1, 3)
         num[:, k] = (spa_residuals(p1, c).ravel() - spa_residuals(p0, c).ravel()) / (2 * eps)
     np.testing.assert_allclose(J, num, atol=1e-5)
+
+
+def test_isotropic_defaults_give_the_same_residuals_bit_for_bit(rng):
+    truth = _ring(8)
+    c = _graph(truth, rng, loops=((0, 5),))
+    k = len(c.i)
+    explicit = Constraints(c.i, c.j, c.z, c.w_t, c.w_r, c.robust, np.zeros(k), c.w_t.copy())
+    poses = truth + rng.normal(0, 0.05, truth.shape)
+    assert np.array_equal(spa_residuals(poses, c), spa_residuals(poses, explicit))
+
+
+@pytest.mark.parametrize("axis, expected", [(0.0, [1.0, 0.05]), (np.pi / 2, [1.25, 0.0])])
+def test_a_sliding_constraint_pulls_only_across_its_axis(axis, expected):
+    # pose 1 is 1 m ahead of pose 0 by one constraint; a second one, weighing nothing along
+    # `axis` (from its own x axis), says 1.5 m ahead and 0.1 m to the left
+    c = Constraints(np.array([0, 0]), np.array([1, 1]), np.array([[1.0, 0.0, 0.0], [1.5, 0.1, 0.0]]),
+                    np.array([1e2, 0.0]), np.array([1e2, 1e2]), np.zeros(2, bool),
+                    np.array([0.0, axis]), np.array([1e2, 1e2]))
+    out = optimize_poses(np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]]), c, tolerance=1e-12)
+    np.testing.assert_allclose(out[1, :2], expected, atol=1e-6)
 
 
 @pytest.mark.parametrize("seed", [0, 1, 2])

@@ -167,3 +167,49 @@ def test_loop_closure_on_the_far_face_of_a_thin_wall_is_rejected(check):
 def test_constraint_builder_config_rejects_a_bad_see_through_ratio():
     with pytest.raises(ValueError, match="max_see_through_ratio"):
         ConstraintBuilderConfig(max_see_through_ratio=1.5)
+
+
+# A straight corridor 1.05 m wide along x (walls on cell centres), mapped from its middle, and a
+# scan that sees 3 m of both walls: any shift along the corridor scores the same.
+CORRIDOR_XS = np.linspace(-1.5, 1.5, 61)
+
+
+def _corridor_submap():
+    sub = Submap(0, np.zeros(2), SubmapsConfig(free_space_margin_sigmas=0.0))
+    xs = np.linspace(-4.0, 4.0, 161)
+    for x0 in np.linspace(-2.0, 2.0, 9):
+        walls = np.vstack([np.column_stack([xs, np.full(len(xs), y)]) for y in (-0.525, 0.525)])
+        sub.insert(np.array([x0, 0.0]), walls[np.abs(walls[:, 0] - x0) < 3.0], np.zeros((0, 2)))
+    sub.finished = True
+    return sub
+
+
+def test_a_corridor_loop_closure_pins_only_the_side_position_and_heading():
+    sub = _corridor_submap()
+    truth = np.array([0.3, 0.03, 0.02])
+    c, s = np.cos(truth[2]), np.sin(truth[2])
+    world = np.vstack([np.column_stack([CORRIDOR_XS + truth[0], np.full(len(CORRIDOR_XS), y)])
+                       for y in (-0.525, 0.525)])
+    scan = (world - truth[:2]) @ np.array([[c, -s], [s, c]])      # robot frame of the true pose
+    guess = np.array([0.1, 0.08, 0.0])       # the graph's current estimate: 0.2 m behind, 5 cm off
+
+    def closure(checks):
+        cfg = ConstraintBuilderConfig(sampling_ratio=1.0, min_information_ratio=0.1 if checks else 0.0,
+                                      ambiguity_radius=0.3 if checks else 0.0)
+        builder = ConstraintBuilder(cfg)
+        builder.add_finished_submap(sub)
+        return builder, builder.compute(sub, sub.local_pose, 0, guess, scan, np.zeros(2))
+
+    _, plain = closure(False)
+    builder, slide = closure(True)
+    # both checks off: an ordinary constraint, at whatever place along the corridor the search
+    # found (here 5 cm past the estimate)
+    assert plain.slide_axis is None and abs(plain.z[0] - guess[0]) > 0.04
+    # with them, the match slides: it weighs nothing along the corridor (x), in the node's frame
+    assert slide.slide_axis is not None and builder.sliding == 1
+    assert abs(np.sin(slide.slide_axis + slide.z[2])) < 0.05
+    # across the corridor and in heading it says what the ordinary match says, near the truth
+    np.testing.assert_allclose(slide.z[1:], plain.z[1:], atol=0.003)
+    np.testing.assert_allclose(slide.z[1:], truth[1:], atol=0.01)
+    # along it, it keeps the current estimate rather than the search's guess
+    assert abs(slide.z[0] - guess[0]) < 0.02
