@@ -30,7 +30,7 @@ from slam.graph.scan_matching import FastCorrelativeMatcher, angular_step, ceres
 from slam.graph.submaps import Submap
 
 __all__ = ["FixedRatioSampler", "LoopConstraint", "ConstraintBuilder", "translation_information",
-           "information_ratio", "see_through_ratio"]
+           "see_through_ratio"]
 
 # An ambiguity counts as a slide along the weak direction when it lies within this angle of it
 # and the weak direction's information is at most this share of the strong one's; otherwise
@@ -155,14 +155,6 @@ def translation_information(prob: np.ndarray, meta: np.ndarray, points: np.ndarr
     at `pose` on the grid (grid frame)."""
     g = interp_value_grad(prob, meta, np.ascontiguousarray(transform_points(pose, points)))
     return g[:, 1:].T @ g[:, 1:]
-
-
-def information_ratio(prob: np.ndarray, meta: np.ndarray, points: np.ndarray, pose: np.ndarray) -> float:
-    """Smallest over largest eigenvalue of the translation information sum(grad M grad M^T)
-    of the points (N, 2, robot frame) at `pose` on the grid: near 0 when the match slides
-    freely along one direction (a featureless corridor), 1 when both are pinned."""
-    ev = np.linalg.eigvalsh(translation_information(prob, meta, points, pose))
-    return float(ev[0] / ev[1]) if ev[1] > 0 else 0.0
 
 
 def see_through_ratio(submap: Submap, points: np.ndarray, origin: np.ndarray, pose: np.ndarray,

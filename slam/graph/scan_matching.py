@@ -96,25 +96,17 @@ class FastCorrelativeMatcher:
         self.margin = bnb_margin(depth, w, w)
         self.grids = max_grids(np.asarray(prob, np.float32), depth, self.margin)
 
-    def match(self, points: np.ndarray, pose: np.ndarray, min_score: float, ambiguity_radius: float = 0.0,
-              ambiguity_margin: float = 0.0, step: float | None = None) -> tuple[np.ndarray, float] | None:
-        """Search around `pose` (3,) in the submap's frame; (best pose, score) or None.
-
-        ambiguity_radius > 0 (m, ours): also reject the match when a pose farther than this
-        from the best one scores within ambiguity_margin of it (a corridor, a repeated room).
-        step: angular_step(points, resolution) when the caller has it (one node's points are
-        matched against many submaps).
-        """
-        found = self.search(points, pose, min_score, ambiguity_radius, ambiguity_margin, step)
-        if found is None or found[2] is not None:
-            return None
-        return found[0], found[1]
-
     def search(self, points: np.ndarray, pose: np.ndarray, min_score: float, ambiguity_radius: float = 0.0,
                ambiguity_margin: float = 0.0, step: float | None = None
                ) -> tuple[np.ndarray, float, np.ndarray | None] | None:
-        """match() that keeps an ambiguous match: (best pose, score, the best pose farther than
-        ambiguity_radius that scores within ambiguity_margin of it, or None) or None."""
+        """Search around `pose` (3,) in the submap's frame: (best pose, score, other) or None
+        when no pose scores above min_score.
+
+        other (ours): with ambiguity_radius > 0 (m), the best pose farther than that from the
+        best one that scores within ambiguity_margin of it (a corridor, a repeated room), else
+        None. step: angular_step(points, resolution) when the caller has it (one node's points
+        are matched against many submaps).
+        """
         if len(points) == 0:
             return None
         step, n_ang, w = _window(points, self.meta, self.cfg.linear_search_window,
