@@ -183,9 +183,9 @@ class ConstraintBuilderConfig:
     loop_closure_rotation_weight: float = 1e5        # ... per rad
     min_information_ratio: float = 0.1       # ours: a match this degenerate constrains only across
                                              # its weak direction (0 = off)
-    ambiguity_radius: float = 0.3            # ours: reject a match when a pose this far (m) from it
-    ambiguity_margin: float = 0.02           # scores within this margin of the best (0 radius = off),
-                                             # unless that pose lies along a corridor: see min_information_ratio
+    ambiguity_radius: float = 0.3            # ours: reject a match when a pose this far (m) from it,
+                                             # unless along its weak direction (min_information_ratio)
+    ambiguity_margin: float = 0.02           # scores within this margin of the best (0 radius = off)
     # ours: reject a match when more than this fraction of its points have space the submap knows
     # to be free (probability below see_through_free_probability) one submap cell beyond them
     # along the beam: the scan would see through a surface. This is the far face of a thin wall,
