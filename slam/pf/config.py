@@ -74,6 +74,8 @@ class PfConfig:
     """Particle-filter SLAM (Gmapping)."""
 
     particles: int = 30               # particles
+    throttle_scans: int = 1           # throttle_scans (GMapping's ROS node): the filter takes
+                                      # every n-th scan; the motion noise is drawn per scan taken
     resample_threshold: float = 0.5   # resampleThreshold: resample when Neff < this * particles
     linear_update: float = 0.2        # linearUpdate (m): filter update after this much travel
     angular_update: float = 0.2       # angularUpdate (rad): ... or after this much rotation
@@ -90,6 +92,8 @@ class PfConfig:
     def __post_init__(self):
         if self.particles < 1:
             raise ValueError(f"particles must be >= 1, got {self.particles}")
+        if self.throttle_scans < 1:
+            raise ValueError(f"throttle_scans must be >= 1, got {self.throttle_scans}")
         if not 0.0 <= self.resample_threshold <= 1.0:
             raise ValueError(f"resample_threshold must lie in [0, 1], got {self.resample_threshold}")
         for name in ("max_urange", "delta", "map_extent"):

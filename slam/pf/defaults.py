@@ -8,10 +8,13 @@ from __future__ import annotations
 
 from slam.sensors import Derived, SensorFacts, noise_smoothing_beams
 
-__all__ = ["derive_pf_config", "MATCHED_BEAMS"]
+__all__ = ["derive_pf_config", "MATCHED_BEAMS", "REFERENCE_RATE"]
 
 # beams a scan is matched with: the LDS-01's 360 (GMapping's lskip thins denser scanners)
 MATCHED_BEAMS = 360
+# scans per second the filter takes: the LDS-01's rate, at which the motion model's noise
+# (drawn once per scan taken, as GMapping draws it) was set
+REFERENCE_RATE = 5.0
 
 
 def derive_pf_config(s: SensorFacts, delta: float = 0.05) -> list[Derived]:
@@ -28,4 +31,8 @@ def derive_pf_config(s: SensorFacts, delta: float = 0.05) -> list[Derived]:
     out.append(Derived("matcher.lskip", max(0, round(s.beams / MATCHED_BEAMS) - 1),
                        f"match about {MATCHED_BEAMS} beams a scan: every (lskip+1)-th of "
                        f"{s.beams}"))
+    out.append(Derived("throttle_scans", max(1, round(s.scan_rate / REFERENCE_RATE)),
+                       f"take every n-th scan, n the scan rate ({s.scan_rate:.1f} Hz) over "
+                       f"{REFERENCE_RATE:g} Hz: the motion noise, drawn per scan taken, was set "
+                       "for that rate"))
     return out

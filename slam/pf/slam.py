@@ -57,26 +57,38 @@ class ParticleFilterSlam(Slam):
         self._last_update_poses = self.poses.copy()
         self._prior_var = np.zeros(3)
         self._linear = self._angular = 0.0
+        self._n_seen = 0                      # scans handed to update
+        self._sampled_odom: np.ndarray | None = None   # odometry where motion was last sampled
         self.n_resamples = 0
         self.neff_history: list[float] = []
 
     def update(self, scan: Scan, odom: OdomDelta | None, imu: ImuWindow | None) -> np.ndarray:
-        """1. move every particle by the odometry with sampled noise; once the robot travelled
-        linear_update or turned angular_update: 2. scan matching and the proposal per particle
-        (weights x eta); 3. selective resampling; 4. the scan into every particle's map."""
+        """On every throttle_scans-th scan: 1. move every particle by the odometry since the last
+        such scan, with sampled noise; once the robot travelled linear_update or turned
+        angular_update: 2. scan matching and the proposal per particle (weights x eta);
+        3. selective resampling; 4. the scan into every particle's map. Other scans only take
+        their place on the trajectory (by odometry from the last filter update)."""
         first = not self._upd_odom
+        self._n_seen += 1
+        if not first and (self._n_seen - 1) % self.config.throttle_scans:
+            self._record(scan, odom)
+            return compose(self.poses[self.best()], relative(self._sampled_odom, odom.pose))
         if not first:
-            self._move(odom.delta)
+            self._move(relative(self._sampled_odom, odom.pose))
+        self._sampled_odom = np.asarray(odom.pose, dtype=np.float64).copy()
         if first or self._update_due():
             hits, frees, origin, ends, hit = self._beams(scan, odom)
             if not first:
                 self._propose(hits, frees, odom.pose)
                 self._resample_if_needed()
             self._insert(origin, ends, hit, odom.pose)
+        self._record(scan, odom)
+        return self.poses[self.best()].copy()
+
+    def _record(self, scan: Scan, odom: OdomDelta) -> None:
         self._scans.append(scan)
         self._scan_odom.append(np.asarray(odom.pose, dtype=np.float64).copy())
         self._scan_update.append(len(self._upd_odom) - 1)
-        return self.poses[self.best()].copy()
 
     def _move(self, delta: np.ndarray) -> None:
         """Sample every particle's motion; accumulate the motion prior's variance and the travel."""
