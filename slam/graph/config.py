@@ -141,6 +141,11 @@ class LocalConfig:
     # false keeps the first, which favours the first beams of the sweep
     randomized_voxel_filter: bool = True
     use_imu_data: bool = True                # TB3: yaw rate from the gyro in the extrapolator
+    # ours: s, time constant of the gyro bias the extrapolator learns from the scan matcher's
+    # rotation corrections (0: none; Cartographer trusts the gyro's rate as it comes). A
+    # calibrated MEMS gyro keeps ~0.01 deg/s of bias, which the pull to the prediction passes
+    # into the submaps
+    gyro_bias_time_constant: float = 120.0
     use_online_correlative_scan_matching: bool = False  # Cartographer default (TB3: true; its
                                              # 1-cell / 0.8 deg lattice then anchors the rotation)
     match_near_range: float = 2.6            # ours: > 0 weights each point in the least squares by
@@ -160,6 +165,8 @@ class LocalConfig:
 
     def __post_init__(self):
         _positive(self, "max_range", "voxel_filter_size")
+        if self.gyro_bias_time_constant < 0:
+            raise ValueError(f"gyro_bias_time_constant must be >= 0, got {self.gyro_bias_time_constant}")
 
 
 @dataclass(frozen=True)

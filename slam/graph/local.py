@@ -74,6 +74,7 @@ class LocalSlam:
         self.prev_pose = self.pose.copy()
         self.t: float | None = None
         self.prev_t: float | None = None
+        self.gyro_bias = 0.0          # rad/s, subtracted from the gyro's rate
         self.pre = PreprocessConfig(range_min=cfg.min_range, range_max=cfg.max_range,
                                     free_range=cfg.missing_data_ray_length)
 
@@ -97,7 +98,7 @@ class LocalSlam:
             delta = np.zeros(3)
         if self.cfg.use_imu_data and imu is not None and len(imu.gyro):
             delta = delta.copy()
-            delta[2] = yaw_rate_from_imu(imu, self.t, scan.t) * dt
+            delta[2] = (yaw_rate_from_imu(imu, self.t, scan.t) - self.gyro_bias) * dt
         pred = compose(self.pose, delta)
         pred[2] = self.pose[2] + wrap_angle(pred[2] - self.pose[2])
         twist = delta / dt if dt > 0 else np.zeros(3)
@@ -119,6 +120,16 @@ class LocalSlam:
         # pulls them back
         return range_weights(points, self.cfg.match_near_range) * submap.known_at(transform_points(pose, points))
 
+    def _learn_gyro_bias(self, correction: float) -> None:
+        """Move the gyro bias towards the matcher's rotation correction (rad) of one scan.
+
+        Matched against a submap the yaw cannot drift, so over time the corrections add up to
+        minus the bias's integral: their sum telescopes to the change of the yaw error, which
+        stays bounded, plus -bias x time. Gain dt / tau per scan averages them over about tau."""
+        tau = self.cfg.gyro_bias_time_constant
+        if tau > 0 and self.cfg.use_imu_data:
+            self.gyro_bias -= float(wrap_angle(correction)) / tau
+
     def add_scan(self, scan: Scan, odom: OdomDelta | None, imu: ImuWindow | None) -> LocalResult:
         """Match one scan and insert it if it passes the motion filter."""
         pred, twist = self._predict(scan, odom, imu)
@@ -134,6 +145,8 @@ class LocalSlam:
                                                     self.cfg.real_time_correlative_scan_matcher)
             w = self.match_weights(submap, match_pts, start)
             pose = ceres_match(prob, meta, match_pts, start, pred, self.cfg.ceres_scan_matcher, w)
+            if imu is not None and len(imu.gyro):
+                self._learn_gyro_bias(pose[2] - pred[2])
         pose = np.array([pose[0], pose[1], wrap_angle(pose[2])])
         self.prev_pose, self.prev_t = self.pose, self.t
         self.pose, self.t = pose, scan.t

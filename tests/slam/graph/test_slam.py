@@ -1,4 +1,6 @@
 """The pose-graph SLAM `graph` on short synthetic logs: mapping, loop closure, robustness."""
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -9,7 +11,7 @@ from slam.graph import GraphSlam
 from slam.graph.loop_closure import ConstraintBuilder, FixedRatioSampler, LoopConstraint, see_through_ratio
 from slam.graph.submaps import ActiveSubmaps, Submap
 from slam.graph.config import ConstraintBuilderConfig, SubmapsConfig
-from slam.pose import interpolate_poses, relative
+from slam.pose import interpolate_poses, relative, wrap_angle
 from worlds.yamlio import InputError
 from tests.slam.synthlog import box_room_segments, make_log, score, square_route, truth_grid
 
@@ -213,3 +215,29 @@ def test_a_corridor_loop_closure_pins_only_the_side_position_and_heading():
     np.testing.assert_allclose(slide.z[1:], truth[1:], atol=0.01)
     # along it, it keeps the current estimate rather than the search's guess
     assert abs(slide.z[0] - guess[0]) < 0.02
+
+
+def test_local_slam_learns_a_constant_gyro_bias(room_log):
+    # 0.005 rad/s added to every gyro sample: the matcher's pull to the prediction passes much
+    # of it into the yaw; learned from the matcher's corrections it is taken back out
+    bias = 0.005
+    biased = dataclasses.replace(room_log, imu_gyro=room_log.imu_gyro + bias)
+    late_yaw_error = {}
+    for tau in (0.0, 10.0):
+        cfg = {"trajectory_builder": {"gyro_bias_time_constant": tau},
+               "pose_graph": {"enable_loop_closure": False}}
+        s = _run(biased, cfg)
+        t, poses = s.trajectory()
+        gt = interpolate_poses(t, room_log.gt_t, room_log.gt_pose)
+        yaw_error = np.abs(wrap_angle(poses[:, 2] - gt[:, 2]))
+        late_yaw_error[tau] = float(np.mean(yaw_error[len(t) // 2:]))
+        if tau > 0:
+            assert s.local.gyro_bias == pytest.approx(bias, rel=0.2)
+        else:
+            assert s.local.gyro_bias == 0.0
+    assert late_yaw_error[10.0] < 0.5 * late_yaw_error[0.0]
+
+
+def test_local_config_rejects_a_negative_gyro_bias_time_constant():
+    with pytest.raises(InputError, match="gyro_bias_time_constant"):
+        load_config("graph", {"trajectory_builder": {"gyro_bias_time_constant": -1.0}})
