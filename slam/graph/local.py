@@ -125,7 +125,10 @@ class LocalSlam:
 
         Matched against a submap the yaw cannot drift, so over time the corrections add up to
         minus the bias's integral: their sum telescopes to the change of the yaw error, which
-        stays bounded, plus -bias x time. Gain dt / tau per scan averages them over about tau."""
+        stays bounded, plus -bias x time. Gain dt / tau per scan averages them over about tau.
+        Only scans taken while the gyro reads less than gyro_bias_max_rate count: in a turn the
+        matcher's corrections also scale with the turn (against the gyro, 0.1-0.3 % of it on
+        swirl_l), which a route that turns mostly one way would learn as a bias."""
         tau = self.cfg.gyro_bias_time_constant
         if tau > 0 and self.cfg.use_imu_data:
             self.gyro_bias -= float(wrap_angle(correction)) / tau
@@ -145,7 +148,7 @@ class LocalSlam:
                                                     self.cfg.real_time_correlative_scan_matcher)
             w = self.match_weights(submap, match_pts, start)
             pose = ceres_match(prob, meta, match_pts, start, pred, self.cfg.ceres_scan_matcher, w)
-            if imu is not None and len(imu.gyro):
+            if imu is not None and len(imu.gyro) and abs(twist[2]) < self.cfg.gyro_bias_max_rate:
                 self._learn_gyro_bias(pose[2] - pred[2])
         pose = np.array([pose[0], pose[1], wrap_angle(pose[2])])
         self.prev_pose, self.prev_t = self.pose, self.t

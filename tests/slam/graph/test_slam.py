@@ -238,6 +238,7 @@ def test_local_slam_learns_a_constant_gyro_bias(room_log):
     assert late_yaw_error[10.0] < 0.5 * late_yaw_error[0.0]
 
 
-def test_local_config_rejects_a_negative_gyro_bias_time_constant():
-    with pytest.raises(InputError, match="gyro_bias_time_constant"):
-        load_config("graph", {"trajectory_builder": {"gyro_bias_time_constant": -1.0}})
+@pytest.mark.parametrize("field, value", [("gyro_bias_time_constant", -1.0), ("gyro_bias_max_rate", 0.0)])
+def test_local_config_rejects_a_bad_gyro_bias_setting(field, value):
+    with pytest.raises(InputError, match=field):
+        load_config("graph", {"trajectory_builder": {field: value}})
