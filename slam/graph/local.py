@@ -127,7 +127,7 @@ class LocalSlam:
         minus the bias's integral: their sum telescopes to the change of the yaw error, which
         stays bounded, plus -bias x time. Gain dt / tau per scan averages them over about tau.
         Only scans taken while the gyro reads less than gyro_bias_max_rate count: in a turn the
-        matcher's corrections also scale with the turn (against the gyro, 0.1-0.3 % of it on
+        matcher's corrections also scale with the turn (against the gyro, 0.04-0.3 % of it on
         swirl_l), which a route that turns mostly one way would learn as a bias."""
         tau = self.cfg.gyro_bias_time_constant
         if tau > 0 and self.cfg.use_imu_data:

@@ -82,4 +82,5 @@ class GraphSlam(Slam):
                 "loop_closures_see_through": self.graph.builder.see_through,
                 "loop_closures_sliding": sum(c.slide_axis is not None for c in self.graph.loops),
                 "loop_closures_ambiguous": self.graph.builder.ambiguous,
-                "optimizations": self.graph.n_optimizations}
+                "optimizations": self.graph.n_optimizations,
+                "gyro_bias_rad_s": self.local.gyro_bias}
