@@ -20,7 +20,11 @@ from slam.pose import interpolate_poses
 from slam.range_noise import RangeNoise, range_noise_from_meta
 from worlds.yamlio import from_dict
 
-__all__ = ["SensorFacts", "Derived", "sensor_facts", "apply_derived", "noise_smoothing_beams"]
+__all__ = ["SensorFacts", "Derived", "sensor_facts", "apply_derived", "noise_smoothing_beams", "REFERENCE_RATE"]
+
+# the LDS-01's scan rate, Hz: the rate at which the defaults that count scans (pf's motion noise,
+# drawn per scan taken; graph's motion-filter angle) were set
+REFERENCE_RATE = 5.0
 
 
 @dataclass(frozen=True)

@@ -8,15 +8,13 @@ from __future__ import annotations
 
 import math
 
-from slam.sensors import Derived, SensorFacts
+from slam.sensors import REFERENCE_RATE, Derived, SensorFacts
 
-__all__ = ["derive_graph_config", "SPARSE_STEP", "REFERENCE_RATE"]
+__all__ = ["derive_graph_config", "SPARSE_STEP"]
 
 # consecutive scans farther apart than this (m, by odometry) come from a thinned log (a .gfs
 # keeps a scan per metre): the scan-to-scan prediction is coarse
 SPARSE_STEP = 0.1
-# the LDS-01's scan rate, Hz, for which the motion filter's angle was chosen
-REFERENCE_RATE = 5.0
 
 
 def _sig(v: float) -> float:

@@ -6,15 +6,12 @@ parameters mean for that sensor.
 """
 from __future__ import annotations
 
-from slam.sensors import Derived, SensorFacts, noise_smoothing_beams
+from slam.sensors import REFERENCE_RATE, Derived, SensorFacts, noise_smoothing_beams
 
-__all__ = ["derive_pf_config", "MATCHED_BEAMS", "REFERENCE_RATE"]
+__all__ = ["derive_pf_config", "MATCHED_BEAMS"]
 
 # beams a scan is matched with: the LDS-01's 360 (GMapping's lskip thins denser scanners)
 MATCHED_BEAMS = 360
-# scans per second the filter takes: the LDS-01's rate, at which the motion model's noise
-# (drawn once per scan taken, as GMapping draws it) was set
-REFERENCE_RATE = 5.0
 
 
 def derive_pf_config(s: SensorFacts, delta: float = 0.05) -> list[Derived]:
