@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import math
 
+from slam.graph.config import LocalConfig
 from slam.sensors import REFERENCE_RATE, Derived, SensorFacts
 
 __all__ = ["derive_graph_config", "SPARSE_STEP"]
@@ -43,6 +44,19 @@ def derive_graph_config(s: SensorFacts) -> list[Derived]:
                 f"0.1 degree at {REFERENCE_RATE:g} Hz, scaled with the scan rate "
                 f"({s.scan_rate:.1f} Hz) so a turn keeps as many nodes"),
     ]
+    if not sparse:
+        # the prediction (odometry and gyro since the last scan) errs as a random walk: its sigma
+        # grows as the square root of the scan interval, so its weight per scan (1 / sigma) as
+        # the square root of the rate
+        gain = math.sqrt(max(1.0, s.scan_rate / REFERENCE_RATE))
+        csm = LocalConfig().ceres_scan_matcher
+        why = (f"the value at {REFERENCE_RATE:g} Hz times the square root of the scan rate's "
+               f"ratio to it ({s.scan_rate:.1f} Hz): the prediction's error over one scan "
+               "interval grows as its square root")
+        out += [Derived(tb + "ceres_scan_matcher.translation_weight",
+                        _sig(csm.translation_weight * gain), why),
+                Derived(tb + "ceres_scan_matcher.rotation_weight",
+                        _sig(csm.rotation_weight * gain), why)]
     nodes = 90 if not sparse or s.scan_step <= 0 else max(30, min(90, round(30.0 / s.scan_step)))
     thinned = s.odometry and s.scan_step > SPARSE_STEP
     out.append(Derived(tb + "real_time_correlative_scan_matcher.linear_search_window",

@@ -49,7 +49,12 @@ def test_graph_on_a_fast_scanner_and_on_a_thinned_log():
     assert v[tb + "motion_filter.max_angle_radians"] == pytest.approx(math.radians(0.8))
     assert v[tb + "submaps.range_sigma_min"] == pytest.approx(0.015)
     assert v[tb + "use_online_correlative_scan_matching"] is False
+    # 8 times the scans per second: the pulls to the prediction sqrt(8) times stronger per scan
+    assert v[tb + "ceres_scan_matcher.translation_weight"] == pytest.approx(300.0 * math.sqrt(8), rel=1e-3)
+    assert v[tb + "ceres_scan_matcher.rotation_weight"] == pytest.approx(330.0 * math.sqrt(8), rel=1e-3)
     v = _values(derive_graph_config(SICK_GFS))
+    assert v[tb + "ceres_scan_matcher.translation_weight"] == 10.0
+    assert tb + "ceres_scan_matcher.rotation_weight" not in v
     assert v[tb + "use_online_correlative_scan_matching"] is True
     assert v[tb + "real_time_correlative_scan_matcher.linear_search_window"] == pytest.approx(0.2)
     assert v[tb + "submaps.num_range_data"] == 30 and v["pose_graph.optimize_every_n_nodes"] == 30
