@@ -78,6 +78,10 @@ class LocalSlam:
         self.pre = PreprocessConfig(range_min=cfg.min_range, range_max=cfg.max_range,
                                     free_range=cfg.missing_data_ray_length)
 
+    def _uses_gyro(self, imu: ImuWindow | None) -> bool:
+        """True when this scan's rotation is predicted from the gyro."""
+        return self.cfg.use_imu_data and imu is not None and len(imu.gyro) > 0
+
     def _predict(self, scan: Scan, odom: OdomDelta | None, imu: ImuWindow | None) -> tuple[np.ndarray, np.ndarray]:
         """(predicted pose (3,) with unwrapped yaw near the last one, twist (3,) for de-skew).
 
@@ -96,7 +100,7 @@ class LocalSlam:
             delta = relative(self.prev_pose, self.pose) * (dt / (self.t - self.prev_t))
         else:
             delta = np.zeros(3)
-        if self.cfg.use_imu_data and imu is not None and len(imu.gyro):
+        if self._uses_gyro(imu):
             delta = delta.copy()
             delta[2] = (yaw_rate_from_imu(imu, self.t, scan.t) - self.gyro_bias) * dt
         pred = compose(self.pose, delta)
@@ -125,12 +129,14 @@ class LocalSlam:
 
         Matched against a submap the yaw cannot drift, so over time the corrections add up to
         minus the bias's integral: their sum telescopes to the change of the yaw error, which
-        stays bounded, plus -bias x time. Gain dt / tau per scan averages them over about tau.
-        Only scans taken while the gyro reads less than gyro_bias_max_rate count: in a turn the
-        matcher's corrections also scale with the turn (against the gyro, 0.04-0.3 % of it on
-        swirl_l), which a route that turns mostly one way would learn as a bias."""
+        stays bounded, plus -bias x time. A scan's correction is about -(bias left) x dt, so
+        taking correction / tau off the estimate closes the gap with time constant tau.
+        add_scan calls it only for scans whose rotation came from the gyro, taken while it read
+        less than gyro_bias_max_rate: in a turn the matcher's corrections also scale with the
+        turn (against the gyro, 0.04-0.3 % of it on swirl_l), which a route that turns mostly
+        one way would learn as a bias."""
         tau = self.cfg.gyro_bias_time_constant
-        if tau > 0 and self.cfg.use_imu_data:
+        if tau > 0:
             self.gyro_bias -= float(wrap_angle(correction)) / tau
 
     def add_scan(self, scan: Scan, odom: OdomDelta | None, imu: ImuWindow | None) -> LocalResult:
@@ -148,7 +154,7 @@ class LocalSlam:
                                                     self.cfg.real_time_correlative_scan_matcher)
             w = self.match_weights(submap, match_pts, start)
             pose = ceres_match(prob, meta, match_pts, start, pred, self.cfg.ceres_scan_matcher, w)
-            if imu is not None and len(imu.gyro) and abs(twist[2]) < self.cfg.gyro_bias_max_rate:
+            if self._uses_gyro(imu) and abs(twist[2]) < self.cfg.gyro_bias_max_rate:
                 self._learn_gyro_bias(pose[2] - pred[2])
         pose = np.array([pose[0], pose[1], wrap_angle(pose[2])])
         self.prev_pose, self.prev_t = self.pose, self.t
