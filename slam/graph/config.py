@@ -52,6 +52,14 @@ class RealTimeCorrelativeConfig:
     angular_search_window: float = math.radians(20.0)   # rad either side
     translation_delta_cost_weight: float = 1e-1         # penalty per m from the prediction
     rotation_delta_cost_weight: float = 1e-1            # penalty per rad from the prediction
+    # ours: the rotation penalty rises to gain / sigma (0 = off), sigma the spread of the last
+    # scans' yaw innovations (the yaw the scan alone prefers, less the prediction's) or the
+    # angular step if larger: odometry the scans confirm then guides the yaw; raw keeps the weight
+    rotation_delta_cost_gain: float = 0.005
+
+    def __post_init__(self):
+        if self.rotation_delta_cost_gain < 0:
+            raise ValueError(f"rotation_delta_cost_gain must be >= 0, got {self.rotation_delta_cost_gain}")
 
 
 @dataclass(frozen=True)

@@ -9,6 +9,7 @@ All poses here are in the local frame, which starts at the start pose.
 """
 from __future__ import annotations
 
+from collections import deque
 from dataclasses import dataclass
 
 import numpy as np
@@ -22,6 +23,12 @@ from slam.graph.scan_matching import ceres_match, range_weights, real_time_corre
 from slam.graph.submaps import ActiveSubmaps
 
 __all__ = ["LocalSlam", "LocalResult", "MotionFilter"]
+
+# the yaw innovations whose spread sets the correlative search's rotation penalty: the last
+# INNOVATION_WINDOW scans (a stretch of the route, so a log whose odometry worsens follows),
+# used once MIN_INNOVATIONS are in
+INNOVATION_WINDOW = 100
+MIN_INNOVATIONS = 10
 
 
 @dataclass(frozen=True, eq=False)
@@ -75,6 +82,9 @@ class LocalSlam:
         self.t: float | None = None
         self.prev_t: float | None = None
         self.gyro_bias = 0.0          # rad/s, subtracted from the gyro's rate
+        # the correlative search's last yaw innovations (rad) and angular step
+        self.yaw_innovations: deque[float] = deque(maxlen=INNOVATION_WINDOW)
+        self.innovation_floor = 0.0
         self.pre = PreprocessConfig(range_min=cfg.min_range, range_max=cfg.max_range,
                                     free_range=cfg.missing_data_ray_length)
 
@@ -124,6 +134,19 @@ class LocalSlam:
         # pulls them back
         return range_weights(points, self.cfg.match_near_range) * submap.known_at(transform_points(pose, points))
 
+    def _rotation_delta_cost_weight(self) -> float:
+        """The correlative search's penalty per rad of yaw from the prediction.
+
+        gain / sigma, sigma the spread of the recent yaw innovations: a prediction whose yaw the
+        scans have confirmed to within sigma is trusted as much as that. Never below the
+        configured rotation_delta_cost_weight, and that weight until MIN_INNOVATIONS scans have
+        been searched."""
+        rt = self.cfg.real_time_correlative_scan_matcher
+        if rt.rotation_delta_cost_gain <= 0 or len(self.yaw_innovations) < MIN_INNOVATIONS:
+            return rt.rotation_delta_cost_weight
+        sigma = max(1.4826 * float(np.median(np.abs(self.yaw_innovations))), self.innovation_floor)
+        return max(rt.rotation_delta_cost_weight, rt.rotation_delta_cost_gain / sigma)
+
     def _learn_gyro_bias(self, correction: float) -> None:
         """Move the gyro bias towards the matcher's rotation correction (rad) of one scan.
 
@@ -150,8 +173,12 @@ class LocalSlam:
             start = pred
             if self.cfg.use_online_correlative_scan_matching:
                 search, _ = submap.search_grid()
-                start = real_time_correlative_match(search, meta, match_pts, pred,
-                                                    self.cfg.real_time_correlative_scan_matcher)
+                found = real_time_correlative_match(search, meta, match_pts, pred,
+                                                    self.cfg.real_time_correlative_scan_matcher,
+                                                    self._rotation_delta_cost_weight())
+                self.yaw_innovations.append(found.yaw_innovation)
+                self.innovation_floor = found.angular_step
+                start = found.pose
             w = self.match_weights(submap, match_pts, start)
             pose = ceres_match(prob, meta, match_pts, start, pred, self.cfg.ceres_scan_matcher, w)
             if self._uses_gyro(imu) and abs(twist[2]) < self.cfg.gyro_bias_max_rate:

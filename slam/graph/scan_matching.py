@@ -2,7 +2,7 @@
 
 - real_time_correlative_match: exhaustive search over a small window around the prediction,
   scores weighted by a penalty on the distance from it (Cartographer's
-  RealTimeCorrelativeScanMatcher2D).
+  RealTimeCorrelativeScanMatcher2D); it also reports the yaw the scan alone prefers.
 - ceres_match: least squares on the interpolated grid (CeresScanMatcher2D).
 - FastCorrelativeMatcher: precomputation grids of one finished submap plus the
   branch-and-bound search over a large window (FastCorrelativeScanMatcher2D).
@@ -13,6 +13,7 @@ Grids: (rows, cols) probabilities, unknown = Cartographer's min probability, wit
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 
@@ -21,8 +22,8 @@ from slam.graph._correlative_kernel import (bnb_margin, bnb_search, discretize_r
 from slam.graph._match_kernel import match_lm
 from slam.graph.config import CeresScanMatcherConfig, FastCorrelativeConfig, RealTimeCorrelativeConfig
 
-__all__ = ["range_weights", "angular_step", "discretize", "real_time_correlative_match", "ceres_match",
-           "FastCorrelativeMatcher"]
+__all__ = ["range_weights", "angular_step", "discretize", "CorrelativeMatch", "real_time_correlative_match",
+           "ceres_match", "FastCorrelativeMatcher"]
 
 
 def angular_step(points: np.ndarray, resolution: float) -> float:
@@ -47,9 +48,20 @@ def _window(points, meta, linear, angular, step=None):
     return step, n_ang, wxy
 
 
+class CorrelativeMatch(NamedTuple):
+    """real_time_correlative_match's answer."""
+
+    pose: np.ndarray          # (3,) the best candidate with the distance penalty
+    yaw_innovation: float     # rad, the best candidate's yaw offset from the prediction without it
+    angular_step: float       # rad, the search's angular step
+
+
 def real_time_correlative_match(prob: np.ndarray, meta: np.ndarray, points: np.ndarray,
-                                pose: np.ndarray, cfg: RealTimeCorrelativeConfig) -> np.ndarray:
-    """Best pose (3,) of the exhaustive search around `pose` (x, y m, yaw rad)."""
+                                pose: np.ndarray, cfg: RealTimeCorrelativeConfig,
+                                rotation_delta_cost_weight: float | None = None) -> CorrelativeMatch:
+    """The exhaustive search around `pose` (x, y m, yaw rad); rotation_delta_cost_weight
+    replaces cfg's when given."""
+    rw = cfg.rotation_delta_cost_weight if rotation_delta_cost_weight is None else rotation_delta_cost_weight
     step, n_ang, w = _window(points, meta, cfg.linear_search_window, cfg.angular_search_window)
     offsets = np.arange(-n_ang, n_ang + 1) * step
     cells = discretize(points, pose, pose[2] + offsets, meta)
@@ -57,11 +69,12 @@ def real_time_correlative_match(prob: np.ndarray, meta: np.ndarray, points: np.n
     res = meta[2]
     d = np.arange(-w, w + 1) * res
     dist = np.hypot(d[None, :, None], d[None, None, :])
-    penalty = np.exp(-(dist * cfg.translation_delta_cost_weight
-                       + np.abs(offsets)[:, None, None] * cfg.rotation_delta_cost_weight) ** 2)
+    penalty = np.exp(-(dist * cfg.translation_delta_cost_weight + np.abs(offsets)[:, None, None] * rw) ** 2)
     k, a, b = np.unravel_index(int(np.argmax(scores * penalty)), scores.shape)
+    k_free = np.unravel_index(int(np.argmax(scores)), scores.shape)[0]
     # The cell shift moves every point by whole cells: add it to the pose translation.
-    return np.array([pose[0] + d[b], pose[1] + d[a], pose[2] + offsets[k]])
+    return CorrelativeMatch(np.array([pose[0] + d[b], pose[1] + d[a], pose[2] + offsets[k]]),
+                            float(offsets[k_free]), float(step))
 
 
 def range_weights(points: np.ndarray, near_range: float) -> np.ndarray:
