@@ -10,7 +10,9 @@ side, a small PNG) and scores the map with metrics.gtfree (occupied and free fra
 corners, enclosed areas; Filatov et al. 2017: a blurred or doubled map has more of them).
 Writes OUT/gallery.json and OUT/gallery.md (a Markdown table with the pictures).
 The odometry fields of these logs are the corrected poses (GMapping's output), so algorithms
-that use odometry start from a near-perfect prior; gn uses none.
+that use odometry start from a near-perfect prior; gn uses none. The column `poses` maps the
+scans at those poses as the oracle maps (the reference the others are seen against: a
+corridor it bends, GMapping bent), and each row gives the trajectory's ATE against them.
 """
 from __future__ import annotations
 
@@ -41,6 +43,7 @@ LOGS = {
     "seattle": "corrected/seattle-corrected.log.gz",
     "csail": "csail.robotlaser1.log",
 }
+POSES = "poses"      # not an algorithm: the log's own (corrected) poses, mapped as the oracle maps
 
 
 def save_map_png(grid, poses: np.ndarray, path: Path, title: str, max_px: int = 700) -> None:
@@ -96,7 +99,7 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--data", default=str(DEFAULT_DATA))
     ap.add_argument("--logs", default=",".join(LOGS), help=f"comma-separated, from: {', '.join(LOGS)}")
-    ap.add_argument("--algo", default=None, help="comma-separated (default gn,graph,pf)")
+    ap.add_argument("--algo", default=None, help=f"comma-separated (default gn,graph,pf,{POSES})")
     ap.add_argument("--out", default=str(ROOT / "docs" / "gallery"))
     ap.add_argument("--max-px", type=int, default=700)
     ap.add_argument("--seed", type=int, default=0)
@@ -109,12 +112,15 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def run(data: Path, logs: str, algos: str | None, out: Path, max_px: int, seed: int) -> int:
+    from dataclasses import replace
+
+    from metrics import ate_rpe
     from metrics.gtfree import gtfree_metrics
     from slam.registry import names as algorithm_names
     from slam.replay import run_algorithm
 
-    known = algorithm_names()
-    names = [a.strip() for a in (algos or "gn,graph,pf").split(",") if a.strip()]
+    known = algorithm_names() + [POSES]
+    names = [a.strip() for a in (algos or f"gn,graph,pf,{POSES}").split(",") if a.strip()]
     out.mkdir(parents=True, exist_ok=True)
     index = out / "gallery.json"
     rows = json.loads(index.read_text()) if index.exists() else []
@@ -129,7 +135,10 @@ def run(data: Path, logs: str, algos: str | None, out: Path, max_px: int, seed: 
             t0 = time.perf_counter()
             png = out / f"{log_name}_{name}.png"
             try:
-                result = run_algorithm(name, log, seed=seed)
+                if name == POSES:
+                    result = run_algorithm("oracle", replace(log, gt_t=log.odom_t, gt_pose=log.odom_pose))
+                else:
+                    result = run_algorithm(name, log, seed=seed)
             except InputError as err:     # a lost algorithm is a result: a row with its reason
                 png.unlink(missing_ok=True)
                 row = {"log": log_name, "algo": name, "scans": int(log.n_scans),
@@ -144,7 +153,9 @@ def run(data: Path, logs: str, algos: str | None, out: Path, max_px: int, seed: 
             row = {"log": log_name, "algo": name, "scans": int(log.n_scans),
                    "duration_s": float(log.duration), "wall_time_s": wall,
                    "realtime_factor": float(log.duration / wall), "png": png.name,
-                   "png_bytes": png.stat().st_size, **gtfree_metrics(result.grid)}
+                   "png_bytes": png.stat().st_size,
+                   "ate_to_log_poses_m": ate_rpe(result.times, result.poses, log.odom_t, log.odom_pose).ate_m,
+                   **gtfree_metrics(result.grid)}
             rows = [r for r in rows if not (r["log"] == log_name and r["algo"] == name)] + [row]
             print(f"{log_name} {name}: {wall:.1f} s ({row['realtime_factor']:.0f}x), "
                   f"occupied {row['occupied_fraction']:.3f}, corners {row['corners']}, "
@@ -158,15 +169,17 @@ def format_gallery(rows: list[dict]) -> str:
     """Markdown: a score table and a picture grid (one row per log, one column per algorithm)."""
     algos = sorted({r["algo"] for r in rows})
     logs = list(dict.fromkeys(r["log"] for r in rows))
-    lines = ["| log | algorithm | scans | data (s) | wall (s) | × real time | occupied | free | "
-             "corners | enclosed areas |", "|" + "---|" * 10]
+    rows = sorted(rows, key=lambda r: (logs.index(r["log"]), r["algo"]))   # a log's rows together
+    lines = ["| log | algorithm | scans | data (s) | wall (s) | × real time | ATE to the log's poses (m) | "
+             "occupied | free | corners | enclosed areas |", "|" + "---|" * 11]
     for r in rows:
         if "failed" in r:
             lines.append(f"| {r['log']} | {r['algo']} | {r['scans']} | {r['duration_s']:.0f} | "
-                         f"failed: {r['failed'][:120]} | | | | | |")
+                         f"failed: {r['failed'][:120]} | | | | | | |")
             continue
+        ate = f"{r['ate_to_log_poses_m']:.3f}" if "ate_to_log_poses_m" in r else "-"
         lines.append(f"| {r['log']} | {r['algo']} | {r['scans']} | {r['duration_s']:.0f} | "
-                     f"{r['wall_time_s']:.1f} | {r['realtime_factor']:.0f} | "
+                     f"{r['wall_time_s']:.1f} | {r['realtime_factor']:.0f} | {ate} | "
                      f"{r['occupied_fraction']:.3f} | {r['free_fraction']:.3f} | {r['corners']} | "
                      f"{r['enclosed_areas']} |")
     lines += ["", "| log | " + " | ".join(algos) + " |", "|---|" + "---|" * len(algos)]
