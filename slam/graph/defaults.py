@@ -57,6 +57,13 @@ def derive_graph_config(s: SensorFacts) -> list[Derived]:
                         _sig(csm.translation_weight * gain), why),
                 Derived(tb + "ceres_scan_matcher.rotation_weight",
                         _sig(csm.rotation_weight * gain), why)]
+    if not s.odometry:
+        # the class's pulls trust a wheel-odometry prediction; a constant-velocity guess earns
+        # only Cartographer's, and the tuned ones drag every scan towards it
+        why = ("Cartographer's pull to the prediction when the log has no odometry (the "
+               "prediction is the last motion, continued)")
+        out += [Derived(tb + "ceres_scan_matcher.translation_weight", 10.0, why),
+                Derived(tb + "ceres_scan_matcher.rotation_weight", 40.0, why)]
     nodes = 90 if not sparse or s.scan_step <= 0 else max(30, min(90, round(30.0 / s.scan_step)))
     thinned = s.odometry and s.scan_step > SPARSE_STEP
     out.append(Derived(tb + "real_time_correlative_scan_matcher.linear_search_window",

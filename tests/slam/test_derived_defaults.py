@@ -60,8 +60,12 @@ def test_graph_on_a_fast_scanner_and_on_a_thinned_log():
     assert v[tb + "submaps.num_range_data"] == 30 and v["pose_graph.optimize_every_n_nodes"] == 30
     assert v[tb + "use_imu_data"] is False and v[tb + "missing_data_ray_length"] == 5.0
     assert v[tb + "adaptive_voxel_filter.max_range"] == 80.0
-    # without odometry the prediction is coarse: the online correlative matcher searches
-    assert _values(derive_graph_config(NO_ODOMETRY))[tb + "use_online_correlative_scan_matching"]
+    # without odometry the prediction is coarse: the online correlative matcher searches, and
+    # the least squares pulls towards it are Cartographer's
+    v = _values(derive_graph_config(NO_ODOMETRY))
+    assert v[tb + "use_online_correlative_scan_matching"]
+    assert v[tb + "ceres_scan_matcher.translation_weight"] == 10.0
+    assert v[tb + "ceres_scan_matcher.rotation_weight"] == 40.0
 
 
 def _log(lidar="utm-30lx"):
