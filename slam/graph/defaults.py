@@ -8,10 +8,13 @@ from __future__ import annotations
 
 import math
 
-from slam.graph.config import LocalConfig
+from slam.graph.config import CeresScanMatcherConfig, LocalConfig
 from slam.sensors import REFERENCE_RATE, Derived, SensorFacts
 
 __all__ = ["derive_graph_config", "SPARSE_STEP"]
+
+# Cartographer's ceres scan matcher (the config class's own defaults): its pulls to the prediction
+CARTOGRAPHER_CSM = CeresScanMatcherConfig()
 
 # consecutive scans farther apart than this (m, by odometry) come from a thinned log (a .gfs
 # keeps a scan per metre): the scan-to-scan prediction is coarse
@@ -62,8 +65,8 @@ def derive_graph_config(s: SensorFacts) -> list[Derived]:
         # only Cartographer's, and the tuned ones drag every scan towards it
         why = ("Cartographer's pull to the prediction when the log has no odometry (the "
                "prediction is the last motion, continued)")
-        out += [Derived(tb + "ceres_scan_matcher.translation_weight", 10.0, why),
-                Derived(tb + "ceres_scan_matcher.rotation_weight", 40.0, why)]
+        out += [Derived(tb + "ceres_scan_matcher.translation_weight", CARTOGRAPHER_CSM.translation_weight, why),
+                Derived(tb + "ceres_scan_matcher.rotation_weight", CARTOGRAPHER_CSM.rotation_weight, why)]
     nodes = 90 if not sparse or s.scan_step <= 0 else max(30, min(90, round(30.0 / s.scan_step)))
     thinned = s.odometry and s.scan_step > SPARSE_STEP
     out.append(Derived(tb + "real_time_correlative_scan_matcher.linear_search_window",
@@ -85,7 +88,7 @@ def derive_graph_config(s: SensorFacts) -> list[Derived]:
                         1e4, "the local-SLAM chain held less stiffly on a thinned log"),
                 Derived("pose_graph.optimization_problem.local_slam_pose_rotation_weight",
                         1e4, "the local-SLAM chain held less stiffly on a thinned log"),
-                Derived(tb + "ceres_scan_matcher.translation_weight", 10.0, why),
+                Derived(tb + "ceres_scan_matcher.translation_weight", CARTOGRAPHER_CSM.translation_weight, why),
                 Derived(tb + "randomized_voxel_filter", False,
                         "a voxel keeps its first point on a thinned log"),
                 Derived(tb + "submaps.grid_type", "probability_grid", why),
