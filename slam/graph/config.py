@@ -153,7 +153,7 @@ class LocalConfig:
     # rotation corrections (0: none; Cartographer trusts the gyro's rate as it comes). A
     # calibrated MEMS gyro keeps ~0.01 deg/s of bias, which the pull to the prediction passes
     # into the submaps
-    gyro_bias_time_constant: float = 60.0
+    gyro_bias_time_constant: float = 30.0
     gyro_bias_max_rate: float = 0.05         # ours: rad/s, the bias is learned from scans taken
                                              # while the gyro reads less (driving straight)
     use_online_correlative_scan_matching: bool = False  # Cartographer default (TB3: true; its
