@@ -92,6 +92,37 @@ def test_different_seed_gives_different_noise(room_log):
     assert not np.allclose(other.odom_pose[-1], room_log.odom_pose[-1])
 
 
+def _gyro_error(log):
+    """(K,) the log's gyro minus the true yaw rate at its samples (the rate as sim.imu takes
+    it: central differences of the unwrapped true yaw at the physics steps)."""
+    dt = float(np.diff(log.gt_t[:2])[0])
+    rate = np.gradient(np.unwrap(log.gt_pose[:, 2]), dt)
+    idx = np.rint(log.imu_t / dt).astype(int)
+    return log.imu_gyro - rate[idx]
+
+
+def test_same_seed_gives_the_same_gyro_bias_in_another_world():
+    # docs/benchmark.md: a log's noise depends on its seed alone, so draw d of every world in a
+    # suite has the same gyro bias and bias walk (the white noise left out: its draws follow
+    # the walk's, whose count is the log's length)
+    import dataclasses
+    from sim.noise import load_profile
+    real = load_profile("realistic")
+    profile = dataclasses.replace(real, imu=dataclasses.replace(
+        real.imu, gyro=dataclasses.replace(real.imu.gyro, density=0.0, stddev=0.0)))
+    small = record(square_room(route=ROOM_ROUTE), seed=7, noise=profile)
+    large = record(square_room(size=5.0, route=[[4.0, 2.0], [4.0, 4.0], [1.0, 4.0]]), seed=7,
+                   noise=profile)
+    a, b = _gyro_error(small), _gyro_error(large)
+    assert len(a) != len(b)
+    m = min(len(a), len(b))
+    np.testing.assert_allclose(a[:m], b[:m], atol=1e-9)
+    assert np.abs(a).max() > 1e-6        # a bias there is
+    other = _gyro_error(record(square_room(route=ROOM_ROUTE), seed=8, noise=profile))
+    k = min(len(other), m)
+    assert not np.allclose(other[:k], a[:k], atol=1e-9)
+
+
 def test_ideal_lidar_matches_the_geometry():
     world = square_room(route=ROOM_ROUTE)
     log = record(world, seed=0, noise="ideal", config={"lidar": {"motion_distortion": False}})
