@@ -13,6 +13,9 @@ of each kind with generator seeds --seeds. Then, on the shipped worlds and the g
  - moved: the oracle's map moved diagonally by one cell, scored with no alignment;
  - drift: maps built from the true trajectory plus a smooth drift of 1, 2, 3.5 and 5 cm
    (mean F1 over three shapes of each);
+ - turned: maps built from the true trajectory turned rigidly about its centroid by 1, 3 and
+   5 mrad, F1 under the benchmark's alignment and under the exact inverse turn (what a perfect
+   alignment would score);
 and the far-walls world (tests/data/far_walls.yaml: a route 2.5 m from two long walls).
 Prints markdown tables and a PASS / FAIL line per check (the numbers in CHECKS); exits 1 if
 one fails. --out writes every number as JSON.
@@ -35,6 +38,7 @@ sys.path.insert(0, str(ROOT))
 SHIFTS = (0.01, 0.025, 0.04)
 DRIFTS = (0.01, 0.02, 0.035, 0.05)
 DRIFT_PHASES = (0.0, 2 * np.pi / 3, 4 * np.pi / 3)   # a drift's score: the mean F1 of three shapes
+TURNS = (0.001, 0.003, 0.005)   # rad: rigid turns of the true trajectory
 OTHER_TAUS = (0.0075, 0.01)     # the oracle's base scores at these too, to compare taus
 FAR_WALLS = ROOT / "tests" / "data" / "far_walls.yaml"
 # the done-when numbers: oracle P and S on every map and on average, the change under a
@@ -94,6 +98,14 @@ def smooth_drift(times: np.ndarray, amplitude: float, phase: float = 0.0) -> np.
     return amplitude * np.stack([np.sin(u), np.sin(u + 2.0)], axis=1)
 
 
+def turn_about_centroid(poses: np.ndarray, angle: float) -> np.ndarray:
+    """(3,) the rigid transform that turns poses (N, 3) by `angle` rad about the centroid of
+    their positions."""
+    cx, cy = poses[:, :2].mean(axis=0)
+    c, s = np.cos(angle), np.sin(angle)
+    return np.array([cx - (c * cx - s * cy), cy - (s * cx + c * cy), angle])
+
+
 def _bench_score(grid, world, truth, tau):
     """(surface P, S, study cell P, S) as bench scores a simulated world's map (both forms
     under one ICP alignment from identity)."""
@@ -105,11 +117,13 @@ def _bench_score(grid, world, truth, tau):
 
 
 def _job(args):
-    """One world and draw: the oracle's scores; with extras, the moved map and the drifts."""
+    """One world and draw: the oracle's scores; with extras, the moved map, the drifts and the
+    turns."""
     ref, log_seed, shift, tau, extras = args
     import sim
     from metrics.surface import classify_surface, visible_surfaces
     from slam.output_map import OutputMapConfig, output_map_from_trajectory
+    from slam.pose import compose, inverse
     from slam.replay import run_algorithm, scans_of
     from worlds import rasterize
     from worlds.grid import Grid
@@ -140,6 +154,13 @@ def _job(args):
                 grid = output_map_from_trajectory(OutputMapConfig(), scans, oracle.times, poses)
                 f1.append(_f1(*_bench_score(grid, world, truth, tau)[:2]))
             row[f"drift_{amp:g}"] = float(np.mean(f1))
+        for angle in TURNS:
+            turn = turn_about_centroid(oracle.poses, angle)
+            grid = output_map_from_trajectory(OutputMapConfig(), scans, oracle.times,
+                                              compose(turn, oracle.poses))
+            row[f"turn_{angle:g}"] = _f1(*_bench_score(grid, world, truth, tau)[:2])
+            c = classify_surface(grid, visible_surfaces(world), inverse(turn), tau).portion
+            row[f"turn_exact_{angle:g}"] = _f1(c.surface_precision, c.surface_sensitivity)
     return row
 
 
@@ -210,14 +231,17 @@ def print_tables(rows, tau):
     extra = [r for r in base if "moved_p" in r]
     if extra:
         print("\n| world | shift 0.01 / 0.025 / 0.04 m: P, S | moved one cell: P / S | "
-              "drift 0 / 1 / 2 / 3.5 / 5 cm: F1 (mean of 3 shapes) |")
-        print("|---|---|---|---|")
+              "drift 0 / 1 / 2 / 3.5 / 5 cm: F1 (mean of 3 shapes) | turned "
+              + " / ".join(f"{a * 1e3:g}" for a in TURNS) + " mrad: F1 aligned (exact) |")
+        print("|---|---|---|---|---|")
         for r in extra:
             sh = [x for x in rows if x["ref"] == r["ref"] and x["shift"]]
             shs = ", ".join(f"{x['p']:.3f} {x['s']:.3f}" for x in sorted(sh, key=lambda x: x["shift"]))
             f1 = [_f1(r["p"], r["s"])] + [r[f"drift_{a:g}"] for a in DRIFTS]
+            turned = " / ".join(f"{r[f'turn_{a:g}']:.3f} ({r[f'turn_exact_{a:g}']:.3f})"
+                                for a in TURNS)
             print(f"| {r['world']} | {shs} | {r['moved_p']:.3f} / {r['moved_s']:.3f} | "
-                  + " / ".join(f"{v:.3f}" for v in f1) + " |")
+                  + " / ".join(f"{v:.3f}" for v in f1) + f" | {turned} |")
     print()
     ok = True
     for name, passed, detail in checks(rows):

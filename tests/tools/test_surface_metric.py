@@ -22,6 +22,17 @@ def test_drift_is_smooth_bounded_and_centred():
     assert np.abs(np.diff(d, axis=0)).max() < 0.02 * 2 * np.pi / 500 + 1e-9
 
 
+def test_turn_about_centroid_keeps_the_centroid():
+    from slam.pose import compose
+    rng = np.random.default_rng(3)
+    poses = np.column_stack([rng.uniform(0, 8, 50), rng.uniform(0, 5, 50), rng.uniform(-3, 3, 50)])
+    turned = compose(sm.turn_about_centroid(poses, 0.003), poses)
+    c = poses[:, :2].mean(axis=0)
+    assert np.allclose(turned[:, :2].mean(axis=0), c)
+    assert np.allclose(turned[:, 2] - poses[:, 2], 0.003)
+    assert np.allclose(np.linalg.norm(turned[:, :2] - c, axis=1), np.linalg.norm(poses[:, :2] - c, axis=1))
+
+
 def test_checks_fail_on_bad_numbers():
     row = {"ref": "office:0", "world": "office_s0", "draw": 0, "shift": 0.0, "p": 0.99,
            "s": 0.94, "moved_p": 0.3, "moved_s": 0.1,
@@ -43,3 +54,8 @@ def test_small_run_passes_every_check(capsys):
     assert len(results) == 7
     failed = [(name, detail) for name, ok, detail in results if not ok]
     assert not failed, failed
+    # a turned map read under the exact inverse turn scores as the map itself
+    for r in rows:
+        if "moved_p" in r:
+            base = sm._f1(r["p"], r["s"])
+            assert all(r[f"turn_exact_{a:g}"] >= base - 0.01 for a in sm.TURNS), r
