@@ -10,18 +10,24 @@ import numpy as np
 
 from slam.output_map import OutputMapConfig
 from slam.pf._match_kernel import make_params
+from slam.pf.odometry import HEADINGS
 
-__all__ = ["MotionConfig", "MatcherConfig", "PfConfig"]
+__all__ = ["MotionConfig", "MatcherConfig", "PfConfig", "GMAPPING_MOTION"]
+
+# GMapping's motion noise, for odometry that turns by its wheels
+GMAPPING_MOTION = {"srr": 0.1, "srt": 0.2, "str": 0.1, "stt": 0.2}
 
 
 @dataclass(frozen=True)
 class MotionConfig:
-    """Odometry noise, standard deviations proportional to the motion (Gmapping's model)."""
+    """Odometry noise, standard deviations proportional to the motion (Gmapping's model). The
+    defaults are for the TurtleBot3's odometry, the gyro's heading with the wheels' distance
+    (GMapping's, for wheel odometry: GMAPPING_MOTION; a log without a gyro gets them)."""
 
-    srr: float = 0.1   # srr: translation error (m) per metre translated
-    srt: float = 0.2   # srt: rotation error (rad) per metre translated
+    srr: float = 0.03  # srr: translation error (m) per metre translated (GMapping 0.1)
+    srt: float = 0.02  # srt: rotation error (rad) per metre translated (GMapping 0.2)
     str: float = 0.1   # str: translation error (m) per radian rotated
-    stt: float = 0.2   # stt: rotation error (rad) per radian rotated
+    stt: float = 0.02  # stt: rotation error (rad) per radian rotated (GMapping 0.2)
     # floor of the motion prior's standard deviations (m, m, rad) in the proposal, so a
     # particle that barely moved still has a proper prior density
     prior_min_std: tuple[float, float, float] = (0.005, 0.005, 0.005)
@@ -85,6 +91,11 @@ class PfConfig:
     map_extent: float = 50.0          # xmin/xmax/ymin/ymax: half side (m) of the square map around the start
     tile: int = 16                    # cells per side of a copy-on-write map tile (a power of two)
     smooth_beams: int = 4             # not in Gmapping: each return is the mean point of 2k+1 neighbouring beams
+    # not in Gmapping: the odometry's heading, "imu": the gyro's turn with the wheels' distance,
+    # as the TurtleBot3's odometry reports it (turtlebot3_node, use_imu); "wheels": as logged
+    # (then set motion to GMapping's srr 0.1, srt 0.2, str 0.1, stt 0.2, as a log without a
+    # gyro gets them)
+    odometry_heading: str = "imu"
     motion: MotionConfig = field(default_factory=MotionConfig)
     matcher: MatcherConfig = field(default_factory=MatcherConfig)
     output_map: OutputMapConfig = field(default_factory=OutputMapConfig)
@@ -103,6 +114,9 @@ class PfConfig:
             raise ValueError(f"tile must be a power of two, got {self.tile}")
         if self.smooth_beams < 0:
             raise ValueError(f"smooth_beams must be >= 0, got {self.smooth_beams}")
+        if self.odometry_heading not in HEADINGS:
+            raise ValueError(f"odometry_heading must be one of {', '.join(HEADINGS)}, "
+                             f"got {self.odometry_heading!r}")
         m = self.matcher
         if m.gn_iterations < 0 or m.gn_prior_weight < 0:
             raise ValueError("matcher: need gn_iterations >= 0 and gn_prior_weight >= 0")

@@ -2,10 +2,12 @@
 
 Each rule gives the TurtleBot3 values of PfConfig on an LDS-01 log (360 beams, 3.5 m,
 +-5 % noise), so those logs run as before; on another lidar it gives what GMapping's own
-parameters mean for that sensor.
+parameters mean for that sensor. A log without a gyro is run on its wheel odometry with
+GMapping's motion noise.
 """
 from __future__ import annotations
 
+from slam.pf.config import GMAPPING_MOTION
 from slam.sensors import REFERENCE_RATE, Derived, SensorFacts, noise_smoothing_beams
 
 __all__ = ["derive_pf_config", "MATCHED_BEAMS"]
@@ -32,4 +34,9 @@ def derive_pf_config(s: SensorFacts, delta: float = 0.05) -> list[Derived]:
                        f"take every n-th scan, n the scan rate ({s.scan_rate:.1f} Hz) over "
                        f"{REFERENCE_RATE:g} Hz: the motion noise, drawn per scan taken, was set "
                        "for that rate"))
+    if not s.imu:
+        out.append(Derived("odometry_heading", "wheels",
+                           "no gyro in the log: the odometry turns by its wheels"))
+        out += [Derived(f"motion.{k}", v, "GMapping's noise for odometry that turns by its wheels")
+                for k, v in GMAPPING_MOTION.items()]
     return out

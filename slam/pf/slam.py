@@ -15,6 +15,7 @@ from slam.pf.defaults import derive_pf_config
 from slam.pf.maps import TiledMaps
 from slam.pf.motion import (effective_sample_size, motion_std, normalized_weights,
                             sample_motion, systematic_resample)
+from slam.pf.odometry import ImuHeadingOdometry
 from slam.pf.proposal import propose
 from slam.pf.tree import TrajectoryTree
 from slam.pose import compose, relative
@@ -58,6 +59,7 @@ class ParticleFilterSlam(Slam):
         self._prior_var = np.zeros(3)
         self._linear = self._angular = 0.0
         self._n_seen = 0                      # scans handed to update
+        self._odometry = ImuHeadingOdometry() if config.odometry_heading == "imu" else None
         self._sampled_odom: np.ndarray | None = None   # odometry where motion was last sampled
         self.n_resamples = 0
         self.neff_history: list[float] = []
@@ -68,6 +70,8 @@ class ParticleFilterSlam(Slam):
         angular_update: 2. scan matching and the proposal per particle (weights x eta);
         3. selective resampling; 4. the scan into every particle's map. Other scans only take
         their place on the trajectory (by odometry from the last filter update)."""
+        if self._odometry is not None:
+            odom = self._odometry.update(scan.t, odom, imu)
         first = not self._upd_odom
         self._n_seen += 1
         if not first and (self._n_seen - 1) % self.config.throttle_scans:
@@ -107,7 +111,7 @@ class ParticleFilterSlam(Slam):
         to the lidar, the lidar origin (2,), and all beam ends (M, 2) with hit flags (M,)."""
         c = self.config
         dt = scan.t - self._scans[-1].t if self._scans else 0.0
-        # de-skew with the odometry of the scan's revolution (Gmapping takes no IMU)
+        # de-skew with the odometry of the scan's revolution
         before = twist_from_poses(odom.prev_pose, odom.pose, dt) if dt > 0 else None
         twist = sweep_twist(scan, odom, None, before)
         pts = preprocess(scan, self.pre, twist)

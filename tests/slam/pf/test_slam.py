@@ -43,7 +43,9 @@ def test_registered_with_gmapping_defaults():
     assert registry.get("pf") is ParticleFilterSlam
     c = PfConfig()
     assert (c.particles, c.resample_threshold, c.delta) == (30, 0.5, 0.05)
-    assert (c.motion.srr, c.motion.srt, c.motion.str, c.motion.stt) == (0.1, 0.2, 0.1, 0.2)
+    # the TurtleBot3's odometry (the gyro's heading) and a motion model to match it
+    assert c.odometry_heading == "imu"
+    assert (c.motion.srr, c.motion.srt, c.motion.str, c.motion.stt) == (0.03, 0.02, 0.1, 0.02)
     assert (c.matcher.lsigma, c.matcher.iterations, c.matcher.lstep, c.matcher.astep) == (0.075, 5, 0.05, 0.05)
 
 
@@ -86,21 +88,28 @@ def test_a_throttled_filter_runs_as_on_the_scans_it_takes(room_log):
     meta = {**room_log.meta, "lidar": {**room_log.meta["lidar"], "time_increment": 0.0}}
     log = dataclasses.replace(_head(room_log, 120), meta=meta)
     every_third = dataclasses.replace(log, scan_t=log.scan_t[::3], scan_ranges=log.scan_ranges[::3])
-    throttled = run_algorithm("pf", log, config={**SMALL, "throttle_scans": 3}, seed=4)
-    taken = run_algorithm("pf", every_third, config={**SMALL, "throttle_scans": 1}, seed=4)
+    # the wheels' odometry: the gyro's heading is integrated scan by scan, throttled or not
+    wheels = {**SMALL, "odometry_heading": "wheels"}
+    throttled = run_algorithm("pf", log, config={**wheels, "throttle_scans": 3}, seed=4)
+    taken = run_algorithm("pf", every_third, config={**wheels, "throttle_scans": 1}, seed=4)
     assert len(throttled.times) == log.n_scans     # every scan keeps its place on the trajectory
     np.testing.assert_allclose(throttled.poses[::3], taken.poses, atol=1e-9)
     assert throttled.stats["filter_updates"] == taken.stats["filter_updates"] > 5
-    every = run_algorithm("pf", log, config={**SMALL, "throttle_scans": 1}, seed=4)
+    every = run_algorithm("pf", log, config={**wheels, "throttle_scans": 1}, seed=4)
     assert not np.allclose(every.poses[::3], taken.poses, atol=1e-6)
 
 
-def test_filter_beats_biased_odometry(room_log):
+@pytest.mark.parametrize("heading", ["wheels", "imu"])
+def test_filter_beats_biased_odometry(room_log, heading):
     log = _biased(room_log)
     odom = interpolate_poses(log.scan_t, log.odom_t, log.odom_pose)
     odom = compose(log.start_pose, relative(odom[0], odom))
     odom_err = _rmse(log.scan_t, odom, log)
-    res = run_algorithm("pf", log, config=SMALL, seed=0)
+    # the wheels' odometry with GMapping's noise; the gyro's heading with the default noise
+    config = ({**SMALL, "odometry_heading": "wheels",
+               "motion": {"srr": 0.1, "srt": 0.2, "str": 0.1, "stt": 0.2}}
+              if heading == "wheels" else SMALL)
+    res = run_algorithm("pf", log, config=config, seed=0)
     pf_err = _rmse(res.times, res.poses, log)
     assert odom_err > 0.25  # the bias is large
     assert pf_err < 0.3 * odom_err
@@ -112,4 +121,5 @@ def test_stock_gmapping_config_switches_the_additions_off():
     from slam.registry import load_config
     stock = load_config("pf", Path(__file__).parents[3] / "slam" / "configs" / "pf_gmapping.yaml")
     assert (stock.smooth_beams, stock.matcher.gn_iterations) == (0, 0)
+    assert (stock.motion.srr, stock.motion.srt, stock.motion.str, stock.motion.stt) == (0.1, 0.2, 0.1, 0.2)
     assert PfConfig().matcher.gn_iterations > 0
