@@ -42,7 +42,7 @@ def _window(t0, t1, rate):
                      yaw=np.zeros(len(ts)))
 
 
-def _fuse(t, poses, wheels, rates, with_gyro=True):
+def _fuse(t, wheels, rates, with_gyro=True):
     odo = ImuHeadingOdometry()
     out = []
     for k in range(len(t)):
@@ -59,7 +59,7 @@ def test_the_gyros_heading_replaces_the_wheels_turn():
     t, truth = _route(LEGS)
     rates = np.concatenate([[w] * round(d / 0.2) for d, _, w in LEGS])
     wheels = _wheels(truth, 1.05)
-    fused = _fuse(t, truth, wheels, rates)
+    fused = _fuse(t, wheels, rates)
     # the wheels' 5 % too large turn moves the last leg by centimetres; the gyro's keeps it
     assert np.max(np.hypot(*(wheels[:, :2] - truth[:, :2]).T)) > 0.02
     np.testing.assert_allclose(fused, truth, atol=1e-9)
@@ -69,10 +69,10 @@ def test_the_first_scan_and_a_scan_without_gyro_samples_keep_the_wheels():
     t, truth = _route(LEGS)
     rates = np.concatenate([[w] * round(d / 0.2) for d, _, w in LEGS])
     # consistent wheels (their chords point at half their turn) come back as they are ...
-    np.testing.assert_allclose(_fuse(t, truth, truth, rates, with_gyro=False), truth, atol=1e-9)
+    np.testing.assert_allclose(_fuse(t, truth, rates, with_gyro=False), truth, atol=1e-9)
     # ... and wrong ones keep their heading
     wheels = _wheels(truth, 1.05)
-    np.testing.assert_allclose(_fuse(t, truth, wheels, rates, with_gyro=False)[:, 2], wheels[:, 2],
+    np.testing.assert_allclose(_fuse(t, wheels, rates, with_gyro=False)[:, 2], wheels[:, 2],
                                atol=1e-9)
     first = ImuHeadingOdometry().update(0.0, OdomDelta(wheels[3], wheels[2], wheels[4]), None)
     np.testing.assert_array_equal(first.pose, wheels[3])
