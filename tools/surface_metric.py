@@ -142,8 +142,9 @@ def _job(args):
         row[f"p_{other:g}"], row[f"s_{other:g}"], _, _ = _bench_score(oracle.grid, world, truth, other)
     if extras:
         g = oracle.grid
+        surfaces = visible_surfaces(world)
         moved = Grid(g.prob, g.resolution, g.origin + [g.resolution, g.resolution, 0.0])
-        c = classify_surface(moved, visible_surfaces(world), (0.0, 0.0, 0.0), tau).portion
+        c = classify_surface(moved, surfaces, (0.0, 0.0, 0.0), tau).portion
         row["moved_p"], row["moved_s"] = c.surface_precision, c.surface_sensitivity
         scans = scans_of(log)
         for amp in DRIFTS:
@@ -159,7 +160,7 @@ def _job(args):
             grid = output_map_from_trajectory(OutputMapConfig(), scans, oracle.times,
                                               compose(turn, oracle.poses))
             row[f"turn_{angle:g}"] = _f1(*_bench_score(grid, world, truth, tau)[:2])
-            c = classify_surface(grid, visible_surfaces(world), inverse(turn), tau).portion
+            c = classify_surface(grid, surfaces, inverse(turn), tau).portion
             row[f"turn_exact_{angle:g}"] = _f1(c.surface_precision, c.surface_sensitivity)
     return row
 
