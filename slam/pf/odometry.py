@@ -38,7 +38,7 @@ class ImuHeadingOdometry:
         wheels = np.asarray(odom.pose, dtype=np.float64)
         if self._fused is None:
             self._fused, self._wheels, self._t = wheels.copy(), wheels.copy(), t
-            return OdomDelta(wheels.copy(), wheels.copy(), _sweep_end(wheels, wheels, odom))
+            return OdomDelta(wheels.copy(), wheels.copy(), odom.sweep_end)
         step = relative(self._wheels, wheels)
         rate = yaw_rate_from_imu(imu, self._t, t) if t > self._t else None
         turn = step[2] if rate is None else rate * (t - self._t)
