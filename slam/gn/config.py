@@ -53,7 +53,7 @@ class GnConfig:
     degeneracy_weight: float = 1000.0     # per point per m^2 along the degenerate direction
     gradient_along_normal: bool = True    # not in hector: a point reads the map gradient along its normal
     # not in hector: pull of every step towards the constant-velocity position, per point per m^2
-    velocity_prior_weight: float = 3.0
+    velocity_prior_weight: float = 30.0
     preprocess: MatchPreprocessConfig = field(default_factory=MatchPreprocessConfig)  # the matched points
     output_map: OutputMapConfig = field(default_factory=OutputMapConfig)
 

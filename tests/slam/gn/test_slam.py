@@ -117,9 +117,11 @@ def corridor_log():
 
 def test_degenerate_direction_keeps_the_constant_velocity_prediction(corridor_log):
     """Between two parallel walls stock Hector stands still while the robot drives on (the
-    study's corridor failure); the degeneracy check carries the estimate through."""
-    def along_error(threshold):
-        res = run_algorithm("gn", corridor_log, config={"degeneracy_threshold": threshold})
+    study's corridor failure); the degeneracy check carries the estimate through. The weak
+    constant-velocity prior is off in both runs, so that the check alone is measured."""
+    def along_error(threshold, velocity_prior_weight=0.0):
+        res = run_algorithm("gn", corridor_log, config={"degeneracy_threshold": threshold,
+                                                        "velocity_prior_weight": velocity_prior_weight})
         gt = np.interp(res.times, corridor_log.gt_t, corridor_log.gt_pose[:, 1])
         return np.abs(res.poses[:, 1] - gt).max(), res.stats["degenerate_scans"]
 
@@ -128,13 +130,15 @@ def test_degenerate_direction_keeps_the_constant_velocity_prediction(corridor_lo
     assert stock > 3.0 and stock_degenerate == 0
     assert checked < 0.3
     assert degenerate > 50            # the middle stretch, about 4 m at 0.25 m/s and 5 Hz
+    default, _ = along_error(GnConfig().degeneracy_threshold, GnConfig().velocity_prior_weight)
+    assert default < 0.3
 
 
 def test_normal_gradient_and_velocity_prior_change_the_track_and_are_validated(room_log):
     """Each of the two (not in hector) changes the track on its own, deterministically; stock
     hector's config keeps both off; a negative weight fails."""
     default = run_algorithm("gn", room_log)
-    assert (default.config["gradient_along_normal"], default.config["velocity_prior_weight"]) == (True, 3.0)
+    assert (default.config["gradient_along_normal"], default.config["velocity_prior_weight"]) == (True, 30.0)
     for change in ({"gradient_along_normal": False}, {"velocity_prior_weight": 0.0}):
         a = run_algorithm("gn", room_log, config=change)
         b = run_algorithm("gn", room_log, config=change)
