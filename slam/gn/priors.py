@@ -1,5 +1,5 @@
 """The quadratic priors every Gauss-Newton step of gn is pulled by (none is in hector):
-the gyro's yaw, a weak constant-velocity position and, along a direction the scan's surface
+the gyro's yaw, the constant-velocity position and, along a direction the scan's surface
 normals leave unconstrained (degeneracy-aware matching, Zhang, Kaess, Singh, ICRA 2016), the
 constant-velocity position held hard."""
 from __future__ import annotations
@@ -48,8 +48,8 @@ def motion_prior(cfg: GnConfig, predicted: np.ndarray, moved_xy: np.ndarray, n_p
                  has_gyro: bool, has_history: bool,
                  degenerate: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
     """(prior pose (3,), information (3, 3)) of the match: the yaw pulled to the gyro's
-    prediction, the position to the constant-velocity one (weakly, or hard along a degenerate
-    direction, the other direction then left to the map)."""
+    prediction, the position to the constant-velocity one (with velocity_prior_weight, or
+    hard along a degenerate direction, the other direction then left to the map)."""
     prior, info = predicted.copy(), np.zeros((3, 3))
     if has_gyro:
         info[2, 2] = cfg.prior_yaw_weight * n_points
