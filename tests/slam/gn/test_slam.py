@@ -117,7 +117,7 @@ def corridor_log():
 
 def test_degenerate_direction_keeps_the_constant_velocity_prediction(corridor_log):
     """Between two parallel walls stock Hector stands still while the robot drives on (the
-    study's corridor failure); the degeneracy check carries the estimate through. The weak
+    study's corridor failure); the degeneracy check carries the estimate through. The
     constant-velocity prior is off in both runs, so that the check alone is measured."""
     def along_error(threshold, velocity_prior_weight=0.0):
         res = run_algorithm("gn", corridor_log, config={"degeneracy_threshold": threshold,
