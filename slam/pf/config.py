@@ -62,8 +62,9 @@ class MatcherConfig:
     # proposal's covariance (0 = the hill climb alone, the sampled covariance)
     gn_iterations: int = 5
     gn_max_angle_step: float = 0.2  # rad, clamp of one step's rotation (Hector's)
-    # pull towards the motion prior's mean: cost per squared prior standard deviation
-    gn_prior_weight: float = 3.0
+    # pull towards the motion prior's mean: cost per squared prior standard deviation (the
+    # log's defaults set 3 where they set 0.05 m cells)
+    gn_prior_weight: float = 6.0
 
     def params(self) -> np.ndarray:
         """The kernels' params array (slam/pf/_match_kernel.py)."""
@@ -87,7 +88,9 @@ class PfConfig:
     angular_update: float = 0.2       # angularUpdate (rad): ... or after this much rotation
     max_urange: float = 3.5           # maxUrange (m): beams are cropped here (TurtleBot3: 3.0)
     max_range: float = 0.0            # maxRange (m): readings at/after it are no return (0: sensor's)
-    delta: float = 0.05               # delta: map resolution (m)
+    # delta: map resolution (m); GMapping's 0.05, which the log's defaults keep for lidars
+    # that reach past 4 m (slam.pf.defaults)
+    delta: float = 0.025
     map_extent: float = 50.0          # xmin/xmax/ymin/ymax: half side (m) of the square map around the start
     tile: int = 16                    # cells per side of a copy-on-write map tile (a power of two)
     smooth_beams: int = 4             # not in Gmapping: each return is the mean point of 2k+1 neighbouring beams

@@ -1,25 +1,39 @@
 """pf's config values that follow from the log's sensors (ParticleFilterSlam.derive_config).
 
 Each rule gives the TurtleBot3 values of PfConfig on an LDS-01 log (360 beams, 3.5 m,
-+-5 % noise), so those logs run as before; on another lidar it gives what GMapping's own
++-5 % noise), so those logs run on the class defaults; on another lidar it gives what GMapping's own
 parameters mean for that sensor. A log without a gyro is run on its wheel odometry with
 GMapping's motion noise.
+
+The 0.025 m cells were chosen on LDS-01 logs (docs/algorithms/pf.md). A lidar that reaches
+farther keeps GMapping's 0.05 m: ray tracing and map memory grow with range / delta, and the
+finer grid has not been measured on such logs.
 """
 from __future__ import annotations
 
-from slam.pf.config import GMAPPING_MOTION
+from slam.pf.config import GMAPPING_MOTION, PfConfig
 from slam.sensors import REFERENCE_RATE, Derived, SensorFacts, noise_smoothing_beams
 
-__all__ = ["derive_pf_config", "MATCHED_BEAMS"]
+__all__ = ["derive_pf_config", "MATCHED_BEAMS", "FINE_GRID_MAX_RANGE"]
 
 # beams a scan is matched with: the LDS-01's 360 (GMapping's lskip thins denser scanners)
 MATCHED_BEAMS = 360
+# m: lidars reaching no farther map on PfConfig's 0.025 m cells, the others on GMapping's 0.05 m
+FINE_GRID_MAX_RANGE = 4.0
 
 
-def derive_pf_config(s: SensorFacts, delta: float = 0.05) -> list[Derived]:
-    """pf's sensor-dependent values from `s` (delta: the map resolution, m)."""
+def derive_pf_config(s: SensorFacts) -> list[Derived]:
+    """pf's sensor-dependent values from `s`."""
     out = [Derived("max_urange", s.range_max,
                    "the sensor's range limit: every return is used (GMapping's maxUrange)")]
+    delta = PfConfig.delta
+    if s.range_max > FINE_GRID_MAX_RANGE:
+        delta = 0.05
+        out.append(Derived("delta", delta,
+                           f"GMapping's 0.05 m cells: the range reaches past "
+                           f"{FINE_GRID_MAX_RANGE:g} m, where the finer cells were not chosen"))
+        out.append(Derived("matcher.gn_prior_weight", 3.0,
+                           "the pull to the motion prior that goes with 0.05 m cells"))
     extent = max(50.0, 1.25 * s.range_max)
     out.append(Derived("map_extent", extent,
                        "50 m, or 1.25 x the range limit when larger, so a scan taken near the "

@@ -33,9 +33,12 @@ def test_pf_on_a_long_range_dense_scanner():
     assert v["smooth_beams"] == 1             # +-30 mm: sigma 15 mm against a 12.5 mm quarter cell
     assert v["throttle_scans"] == 8           # 40 Hz: the filter takes scans at 5 Hz
     assert "odometry_heading" not in v         # it has a gyro: the TurtleBot3's odometry
+    # it reaches past 4 m: GMapping's 0.05 m cells and the pull to the prior that goes with them
+    assert (v["delta"], v["matcher.gn_prior_weight"]) == (0.05, 3.0)
     v = _values(derive_pf_config(SICK_GFS))
     assert v["max_urange"] == 80.0 and v["map_extent"] == 100.0
     assert v["smooth_beams"] == 0 and v["matcher.lskip"] == 0 and v["throttle_scans"] == 1
+    assert v["delta"] == 0.05
     # no gyro: the wheels' odometry with GMapping's motion noise
     assert v["odometry_heading"] == "wheels"
     assert [v[f"motion.{k}"] for k in ("srr", "srt", "str", "stt")] == [0.1, 0.2, 0.1, 0.2]
