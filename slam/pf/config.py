@@ -88,8 +88,8 @@ class PfConfig:
     angular_update: float = 0.2       # angularUpdate (rad): ... or after this much rotation
     max_urange: float = 3.5           # maxUrange (m): beams are cropped here (TurtleBot3: 3.0)
     max_range: float = 0.0            # maxRange (m): readings at/after it are no return (0: sensor's)
-    # delta: map resolution (m); GMapping's 0.05, which the log's defaults keep for lidars
-    # that reach past 4 m (slam.pf.defaults)
+    # delta: map resolution (m); the log's defaults set GMapping's 0.05 for lidars that reach
+    # past 4 m (slam.pf.defaults)
     delta: float = 0.025
     map_extent: float = 50.0          # xmin/xmax/ymin/ymax: half side (m) of the square map around the start
     tile: int = 16                    # cells per side of a copy-on-write map tile (a power of two)

@@ -1,9 +1,9 @@
 """pf's config values that follow from the log's sensors (ParticleFilterSlam.derive_config).
 
 Each rule gives the TurtleBot3 values of PfConfig on an LDS-01 log (360 beams, 3.5 m,
-+-5 % noise), so those logs run on the class defaults; on another lidar it gives what GMapping's own
-parameters mean for that sensor. A log without a gyro is run on its wheel odometry with
-GMapping's motion noise.
++-5 % noise), so those logs run on the class defaults; on another lidar it gives what
+GMapping's own parameters mean for that sensor. A log without a gyro is run on its wheel
+odometry with GMapping's motion noise.
 
 The 0.025 m cells were chosen on LDS-01 logs (docs/algorithms/pf.md). A lidar that reaches
 farther keeps GMapping's 0.05 m: ray tracing and map memory grow with range / delta, and the
