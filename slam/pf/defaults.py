@@ -20,6 +20,9 @@ __all__ = ["derive_pf_config", "MATCHED_BEAMS", "FINE_GRID_MAX_RANGE"]
 MATCHED_BEAMS = 360
 # m: lidars reaching no farther map on PfConfig's 0.025 m cells, the others on GMapping's 0.05 m
 FINE_GRID_MAX_RANGE = 4.0
+# GMapping's delta (m) and the refinement's pull to the prior that goes with it
+GMAPPING_DELTA = 0.05
+GMAPPING_DELTA_PRIOR_WEIGHT = 3.0
 
 
 def derive_pf_config(s: SensorFacts) -> list[Derived]:
@@ -28,12 +31,12 @@ def derive_pf_config(s: SensorFacts) -> list[Derived]:
                    "the sensor's range limit: every return is used (GMapping's maxUrange)")]
     delta = PfConfig.delta
     if s.range_max > FINE_GRID_MAX_RANGE:
-        delta = 0.05
+        delta = GMAPPING_DELTA
         out.append(Derived("delta", delta,
-                           f"GMapping's 0.05 m cells: the range reaches past "
+                           f"GMapping's {delta:g} m cells: the range reaches past "
                            f"{FINE_GRID_MAX_RANGE:g} m, where the finer cells were not chosen"))
-        out.append(Derived("matcher.gn_prior_weight", 3.0,
-                           "the pull to the motion prior that goes with 0.05 m cells"))
+        out.append(Derived("matcher.gn_prior_weight", GMAPPING_DELTA_PRIOR_WEIGHT,
+                           f"the pull to the motion prior that goes with {delta:g} m cells"))
     extent = max(50.0, 1.25 * s.range_max)
     out.append(Derived("map_extent", extent,
                        "50 m, or 1.25 x the range limit when larger, so a scan taken near the "
