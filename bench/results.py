@@ -45,7 +45,8 @@ _INT_LIMIT = 2 ** 63
 # read as text by the tables and the report
 _TEXT_FIELDS = ("error", "noise", "vary", "source", "traceback", "note", "map_file")
 # numbers the tables, figures and regress read besides the registry's columns
-_NUMBER_FIELDS = ("surface_tau_m", "align_x", "align_y", "align_yaw")
+_NUMBER_FIELDS = ("surface_tau_m", "align_x", "align_y", "align_yaw", "surface_align_x",
+                  "surface_align_y", "surface_align_yaw")
 
 
 def row_key(row: dict) -> tuple[str, str, int]:

@@ -153,9 +153,9 @@ def _scalars(d: dict) -> dict:
 
 def _score(grid: Grid, truth: Grid, surfaces: np.ndarray | None = None) -> dict:
     """Every registered map metric at tolerance 0 (the surface form at metrics.surface's
-    DEFAULT_TAU_M when the world's surfaces (S, 4) are given); the per-tolerance keys again at
-    1 and 2 cells, under the same alignment (the SLAM starts at the true pose: ICP refines
-    from identity)."""
+    DEFAULT_TAU_M when the world's surfaces (S, 4) are given, under the alignment refined onto
+    them: surface_align_*); the per-tolerance keys again at 1 and 2 cells, under the same
+    alignment (the SLAM starts at the true pose: ICP refines from identity)."""
     from metrics import registry
     from metrics.score import map_context, score_context
     ctx = map_context(grid, truth, align="auto", initial=(0.0, 0.0, 0.0), tolerance=0,
@@ -164,6 +164,8 @@ def _score(grid: Grid, truth: Grid, surfaces: np.ndarray | None = None) -> dict:
     out = _scalars(s)
     al = s["align"]
     out.update({f"align_{k}": float(al[k]) for k in ("x", "y", "yaw")})
+    if isinstance(s.get("surface_align"), dict):
+        out.update({f"surface_align_{k}": float(s["surface_align"][k]) for k in ("x", "y", "yaw")})
     for tol in TOLERANCES:
         if tol:
             out.update(registry.compute_at_tolerance(ctx.at_tolerance(tol), tol))

@@ -161,7 +161,8 @@ def _score(args) -> int:
         raise InputError(f"{args.map}: the map has no occupied cell (p >= {args.occupied_thresh}): "
                          "precision and ADNN undefined")
     surfaces = visible_surfaces(world) if world is not None else None
-    # the benchmark's scorer: both forms under one alignment (bench.task._score)
+    # the benchmark's scorer (bench.task._score): the cell form under the alignment, the
+    # surface form under it refined onto the surfaces
     res = score_map(est, truth, align=args.align, initial=args.start, tolerance=args.tolerance,
                     occupied_thresh=args.occupied_thresh, surfaces=surfaces, tau_m=tau)
     forms = {"precision": f"cell: the study's exact rule, tolerance {args.tolerance} cells"}
@@ -171,7 +172,7 @@ def _score(args) -> int:
     if args.picture:
         if surfaces is not None:
             from metrics.plot import save_surface
-            surface = classify_surface(est, surfaces, pose_of(res["align"]), tau,
+            surface = classify_surface(est, surfaces, pose_of(res["surface_align"]), tau,
                                        args.occupied_thresh)
             save_surface(surface, args.picture, title=args.title)
         else:

@@ -16,6 +16,13 @@ Modes:
   inliers wins. Ties between symmetric solutions go to the first found.
 - `auto`: `icp` when `initial` is known, else `global`.
 Maps of any resolution and size are aligned as point sets in metres, so nothing is rejected.
+
+The surface form scores cells against the exact surfaces, so it takes that pose one step
+further (`refine_to_surfaces`): a robust least-squares fit of the estimate's occupied cell
+squares onto the surfaces, in which a square the surface passes through costs nothing. Cell
+centres sit up to half a cell from the surface they hold, so ICP on centres stops where the
+quantisation balances, a few mrad and millimetres off a map that is merely turned; the squares
+carry no such bias: a map that is the truth moved rigidly scores as the truth does.
 """
 from __future__ import annotations
 
@@ -31,7 +38,7 @@ from slam.pose import compose, transform_points, wrap_angle
 from worlds.yamlio import InputError
 
 __all__ = ["AlignConfig", "Alignment", "MapAlignment", "MODES", "align_points", "icp",
-           "global_candidates"]
+           "global_candidates", "refine_to_surfaces"]
 
 MODES = ("auto", "none", "start", "icp", "global")
 
@@ -53,6 +60,9 @@ class AlignConfig:
     point_to_line: bool = True        # finish `icp` and `global` with point-to-line ICP
     line_cut_cells: float = 2.0       # its correspondence cut-off
     line_max_iter: int = 30
+    surface_cut_cells: float = 2.0    # refine_to_surfaces: a cell centre farther than this
+    surface_scale_cells: float = 0.5  # from every surface is an outlier; Cauchy scale
+    surface_max_iter: int = 30
 
 
 @dataclass(frozen=True)
@@ -320,3 +330,97 @@ def align_points(pts: np.ndarray, truth: PreparedTruth, mode: str = "auto",
         pose, more = refine_point_to_line(pts, truth, pose, cfg)
         it += more
     return Alignment(pose, "global", *_fitness(pts, truth, pose, cut), iterations=it)
+
+
+def _surface_samples(segments: np.ndarray, step: float) -> tuple[np.ndarray, np.ndarray]:
+    """Points at most `step` apart along each segment (S, 4) and the segment index of each."""
+    length = np.hypot(segments[:, 2] - segments[:, 0], segments[:, 3] - segments[:, 1])
+    n = np.maximum(np.ceil(length / step).astype(np.int64), 1) + 1
+    seg = np.repeat(np.arange(len(segments)), n)
+    t = (np.arange(int(n.sum())) - np.repeat(np.cumsum(n) - n, n)) / np.repeat(n - 1, n)
+    a, b = segments[seg, :2], segments[seg, 2:]
+    return a + t[:, None] * (b - a), seg
+
+
+def refine_to_surfaces(pts: np.ndarray, segments: np.ndarray, pose: np.ndarray,
+                       resolution: float, cfg: AlignConfig = AlignConfig()) -> tuple[np.ndarray, int]:
+    """The surface form's alignment: `pose` (3,) (estimate -> truth, e.g. ICP's) refined so
+    that the estimate's occupied cells touch the true surfaces.
+
+    pts: (N, 2) occupied cell centres in the estimate's frame (m), cells `resolution` m square
+    and axis-aligned there; segments: (S, 4) x0, y0, x1, y1 of the surfaces, truth frame (m).
+    Each centre is paired with its nearest surface point; its residual is how far the cell's
+    square stays from that point (0 when the surface passes through the square), Cauchy-weighted
+    with scale `surface_scale_cells`; a centre farther than `surface_cut_cells` from every
+    surface counts as an outlier at the cut. Gauss-Newton steps about the centroid, each kept
+    only if it lowers the total cost. Returns (pose (3,), iterations).
+    """
+    pose = np.asarray(pose, dtype=np.float64).reshape(3).copy()
+    segments = np.asarray(segments, dtype=np.float64).reshape(-1, 4)
+    if len(pts) < 3 or len(segments) == 0:
+        return pose, 0
+    from scipy.spatial import cKDTree
+    samples, seg_of = _surface_samples(segments, 0.1 * resolution)
+    tree = cKDTree(samples)
+    a = segments[:, :2]
+    ab = segments[:, 2:] - a
+    ab2 = np.maximum(np.sum(ab * ab, axis=1), 1e-18)
+    half = 0.5 * resolution
+    cut = cfg.surface_cut_cells * resolution
+    scale = cfg.surface_scale_cells * resolution
+    # an outlier costs what a residual at the cut does, so leaving the surfaces never pays
+    r_cap = cut - half
+
+    def residuals(p_pose):
+        moved = transform_points(p_pose, pts)
+        _, k = tree.query(moved, distance_upper_bound=cut + 0.1 * resolution)
+        near = k < len(samples)
+        moved = moved[near]
+        s = seg_of[k[near]]
+        t = np.clip(np.sum((moved - a[s]) * ab[s], axis=1) / ab2[s], 0.0, 1.0)
+        e = moved - (a[s] + t[:, None] * ab[s])
+        dist = np.hypot(e[:, 0], e[:, 1])
+        u = e / np.maximum(dist, 1e-12)[:, None]
+        # the square's reach towards the surface: u in the estimate's (cell) axes
+        c, sn = np.cos(p_pose[2]), np.sin(p_pose[2])
+        reach = half * (np.abs(c * u[:, 0] + sn * u[:, 1]) + np.abs(-sn * u[:, 0] + c * u[:, 1]))
+        r = np.minimum(np.maximum(dist - reach, 0.0), r_cap)
+        inl = dist <= cut
+        return moved[inl], u[inl], r[inl], len(pts) - int(inl.sum())
+
+    def cost(p_pose):
+        _, _, r, outliers = residuals(p_pose)
+        return float(np.sum(np.log1p((r / scale) ** 2)) + outliers * np.log1p((r_cap / scale) ** 2))
+
+    current = cost(pose)
+    it = 0
+    for it in range(1, cfg.surface_max_iter + 1):
+        p, u, r, _ = residuals(pose)
+        on = r > 0.0
+        if on.sum() < 3:
+            break
+        p, u, r = p[on], u[on], r[on]
+        w = 1.0 / (1.0 + (r / scale) ** 2)
+        c = p.mean(0)
+        # p' = R(a) (p - c) + c + t, linearised at a = 0: dr = u . (t + a perp(p - c))
+        arm = u[:, 1] * (p[:, 0] - c[0]) - u[:, 0] * (p[:, 1] - c[1])
+        jac = np.column_stack([u[:, 0], u[:, 1], arm])
+        h = jac.T @ (w[:, None] * jac)
+        # a wall seen alone leaves the motion along it free: the damping keeps that step at 0
+        h[np.diag_indices(3)] += 1e-9 * (1.0 + np.trace(h))
+        step = np.linalg.solve(h, -(jac.T @ (w * r)))
+        radius = float(np.sqrt(np.mean(np.sum((p - c) ** 2, axis=1))))
+        moved = False
+        for _ in range(6):
+            tx, ty, ang = step
+            ca, sa = np.cos(ang), np.sin(ang)
+            cand = compose(np.array([c[0] - (ca * c[0] - sa * c[1]) + tx,
+                                     c[1] - (sa * c[0] + ca * c[1]) + ty, ang]), pose)
+            new = cost(cand)
+            if new < current:
+                pose, current, moved = cand, new, True
+                break
+            step = 0.5 * step
+        if not moved or np.hypot(step[0], step[1]) + abs(step[2]) * radius < cfg.icp_tol_cells * resolution:
+            break
+    return pose, it

@@ -36,11 +36,13 @@ def _alignment(ctx) -> MapAlignment:
 
 
 def _surface(ctx) -> SurfacePortion | None:
-    """The surface form under the alignment the cell form uses; None for a raster-only truth
-    (or a world with no surface around its start)."""
+    """The surface form under its own alignment (the cell form's, refined onto the surfaces:
+    MapContext.surface_pose); None for a raster-only truth (or a world with no surface around
+    its start)."""
     if ctx.surfaces is None or len(ctx.surfaces) == 0:
         return None
-    return classify_surface(ctx.estimate, ctx.surfaces, ctx.alignment.pose, ctx.tau_m,
+    pose = ctx.alignment.pose if ctx.surface_pose is None else ctx.surface_pose
+    return classify_surface(ctx.estimate, ctx.surfaces, pose, ctx.tau_m,
                             ctx.occupied_thresh).portion
 
 

@@ -3,7 +3,8 @@
 Steps: occupied cell centres of the estimate -> alignment (align.py) -> the estimate resampled
 onto the truth's grid, extended to hold all of it (resample.py) -> a MapContext holding these
 -> every registered map metric (metrics.registry, in registration order: TP/FP/FN, ADNN both
-ways, the surface form when the world's surfaces are given, the alignment used, SSIM and
+ways, the surface form when the world's surfaces are given (under the alignment refined onto
+those surfaces, align.refine_to_surfaces), the alignment used, SSIM and
 the ground-truth-free metrics of the estimate).
 """
 from __future__ import annotations
@@ -13,7 +14,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from metrics import registry
-from metrics.align import AlignConfig, Alignment, align_points
+from metrics.align import AlignConfig, Alignment, align_points, refine_to_surfaces
 from metrics.grid_portion import Classification, classify_masks
 from metrics.resample import extended_grid, resample_onto
 from metrics.surface import DEFAULT_TAU_M
@@ -45,7 +46,9 @@ class MapContext:
     occupied cell centres (N, 2) in its own frame and aligned to the truth (world m), the
     overlay on the truth's grid, classified at `overlay.classes.tolerance` cells, and the
     world's visible surfaces (S, 4) x0, y0, x1, y1 m with the surface form's tolerance tau_m
-    (m); surfaces None: the truth is only a raster, the surface form does not apply."""
+    (m) and the surface form's alignment surface_pose (3,) (the alignment refined onto the
+    surfaces when it was searched, as given otherwise); surfaces None: the truth is only a
+    raster, the surface form does not apply."""
 
     estimate: Grid
     truth: PreparedTruth
@@ -56,6 +59,7 @@ class MapContext:
     occupied_thresh: float
     surfaces: np.ndarray | None = None
     tau_m: float = DEFAULT_TAU_M
+    surface_pose: np.ndarray | None = None   # the surface form's alignment (align.refine_to_surfaces)
 
     def at_tolerance(self, tolerance: int) -> MapContext:
         """The same context with the overlay classified at `tolerance` cells."""
@@ -108,10 +112,15 @@ def map_context(estimate: Grid, truth: Grid | PreparedTruth, align: str = "auto"
     est_pts = estimate.occupied_xy(occupied_thresh)
     al = align_points(est_pts, t, align, initial, config or AlignConfig())
     ov = _overlay(estimate, t, al.pose, est_pts, int(tolerance), occupied_thresh)
+    surface_pose = None
     if surfaces is not None:
         surfaces = np.asarray(surfaces, dtype=np.float64).reshape(-1, 4)
+        surface_pose = al.pose
+        if al.mode in ("icp", "global"):
+            surface_pose, _ = refine_to_surfaces(est_pts, surfaces, al.pose, estimate.resolution,
+                                                 config or AlignConfig())
     return MapContext(estimate, t, al, est_pts, transform_points(al.pose, est_pts), ov,
-                      occupied_thresh, surfaces, float(tau_m))
+                      occupied_thresh, surfaces, float(tau_m), surface_pose)
 
 
 def score_context(ctx: MapContext, gtfree: bool = True) -> dict:

@@ -29,8 +29,8 @@ __all__ = ["visible_surfaces", "SurfacePortion", "SurfaceClassification", "class
 
 # tolerance of the surface form (m), a tenth of a 0.05 m cell: the output map draws a wall in
 # the cell that holds its surface, so the oracle's maps (true poses, realistic noise) need no
-# slack beyond the range noise left after averaging (P and S >= 0.96 on 144 maps, mean
-# 0.994 / 0.991), while a map one cell off scores about 0.1 (tools/surface_metric.py)
+# slack beyond the range noise left after averaging (P and S >= 0.959 on 144 maps, mean
+# 0.995 / 0.990), while a map one cell off scores about 0.1 (tools/surface_metric.py)
 DEFAULT_TAU_M = 0.005
 # a face exactly on a cell edge must touch both cells despite floating-point rounding of the
 # transform into map coordinates: a tolerance this small (cells, 5e-8 m) is added to tau
@@ -45,7 +45,8 @@ def visible_surfaces(world) -> np.ndarray:
 
 @dataclass(frozen=True)
 class SurfacePortion(Result):
-    """The surface form's precision, sensitivity and F1, cell counts and surface lengths (m)."""
+    """The surface form's precision, sensitivity and F1, cell counts, surface lengths (m) and
+    the alignment {"x", "y", "yaw"} it was scored under."""
 
     surface_precision: float
     surface_sensitivity: float
@@ -55,6 +56,7 @@ class SurfacePortion(Result):
     surface_length_m: float
     surface_covered_m: float
     surface_tau_m: float
+    surface_align: dict        # the transform estimate -> world it was scored under
 
 
 @dataclass(frozen=True)
@@ -87,13 +89,14 @@ class SurfaceClassification:
         sensitivity = covered / total if total > 0 else 0.0
         f1 = (2 * precision * sensitivity / (precision + sensitivity)
               if precision + sensitivity > 0 else 0.0)
+        align = {"x": float(self.pose[0]), "y": float(self.pose[1]), "yaw": float(self.pose[2])}
         return SurfacePortion(float(precision), float(sensitivity), float(f1), tp, n - tp, total,
-                              covered, float(self.tau_m))
+                              covered, float(self.tau_m), align)
 
     @property
     def counts(self) -> dict:
         """portion.as_dict(): surface_precision, surface_sensitivity, surface_f1, surface_tp,
-        surface_fp, surface_length_m, surface_covered_m, surface_tau_m."""
+        surface_fp, surface_length_m, surface_covered_m, surface_tau_m, surface_align."""
         return self.portion.as_dict()
 
     def fp_xy(self) -> np.ndarray:

@@ -15,7 +15,7 @@ of each kind with generator seeds --seeds. Then, on the shipped worlds and the g
    (mean F1 over three shapes of each);
  - turned: maps built from the true trajectory turned rigidly about its centroid by 1, 3 and
    5 mrad, F1 under the benchmark's alignment and under the exact inverse turn (what a perfect
-   alignment would score);
+   alignment would score): a map that is the truth moved rigidly must score as the truth does;
 and the far-walls world (tests/data/far_walls.yaml: a route 2.5 m from two long walls).
 Prints markdown tables and a PASS / FAIL line per check (the numbers in CHECKS); exits 1 if
 one fails. --out writes every number as JSON.
@@ -42,9 +42,10 @@ TURNS = (0.001, 0.003, 0.005)   # rad: rigid turns of the true trajectory
 OTHER_TAUS = (0.0075, 0.01)     # the oracle's base scores at these too, to compare taus
 FAR_WALLS = ROOT / "tests" / "data" / "far_walls.yaml"
 # the done-when numbers: oracle P and S on every map and on average, the change under a
-# world shift, the one-cell move's mean, the far-walls world's sensitivity and its coverage
+# world shift, the one-cell move's mean, the far-walls world's sensitivity and its coverage;
+# and how far a turned map's F1 may fall from its score under the exact inverse turn
 CHECKS = {"oracle_min": 0.95, "oracle_mean": 0.97, "shift_max": 0.02, "moved_mean": 0.25,
-          "far_sensitivity": 0.93, "far_coverage": 0.95}
+          "far_sensitivity": 0.93, "far_coverage": 0.95, "turned_max": 0.01}
 
 
 def _seeds(text: str) -> list[int]:
@@ -195,6 +196,10 @@ def checks(rows: list[dict]) -> list[tuple[str, bool, str]]:
                 bad.append(r["world"])
         out.append(("drift scores lower at each step (F1)", not bad,
                     f"{len(extra) - len(bad)}/{len(extra)} worlds monotone" + (f"; not: {bad}" if bad else "")))
+        loss = max(r[f"turn_exact_{a:g}"] - r[f"turn_{a:g}"] for r in extra for a in TURNS)
+        out.append(("turned maps score as under the exact inverse turn", loss <= CHECKS["turned_max"],
+                    f"largest F1 loss {loss:.4f} over {len(extra)} worlds x {len(TURNS)} turns "
+                    f"(<= {CHECKS['turned_max']})"))
     far = [r for r in rows if r["ref"] == str(FAR_WALLS)]
     if far:
         cov, s = min(r["coverage"] for r in far), min(r["s"] for r in far)

@@ -46,14 +46,17 @@ def test_rows_metrics_failures_and_maps(tiny, tmp_path):
     with np.load(tmp_path / "run" / good["map_file"]) as z:
         assert z["prob"].ndim == 2 and z["poses"].shape[1] == 3
         grid = Grid(z["prob"], float(z["resolution"]), z["origin"])
-    # the surface form, under the alignment the cell form found, at the default tau, against
-    # the world's visible surfaces stored beside the true map
+    # the surface form, under its alignment (surface_align_*: the cell form's refined onto the
+    # surfaces), at the default tau, against the world's visible surfaces stored beside the
+    # true map
     from metrics.surface import DEFAULT_TAU_M, classify_surface
     import worlds
     truth, surfaces = read_truth(tmp_path / "run", "tiny")
     np.testing.assert_array_equal(surfaces, worlds.load_world(tiny).visible_segments)
-    expect = classify_surface(grid, surfaces, [good[f"align_{k}"] for k in ("x", "y", "yaw")],
+    expect = classify_surface(grid, surfaces, [good[f"surface_align_{k}"] for k in ("x", "y", "yaw")],
                               DEFAULT_TAU_M).counts
+    assert {f"surface_align_{k}": good[f"surface_align_{k}"] for k in ("x", "y", "yaw")} == \
+        pytest.approx({f"surface_align_{k}": v for k, v in expect.pop("surface_align").items()})
     assert {k: good[k] for k in expect} == pytest.approx(expect)
     assert good["surface_tau_m"] == DEFAULT_TAU_M and 0 < good["surface_precision"] <= 1
     run = json.loads((tmp_path / "run" / "run.json").read_text())

@@ -16,7 +16,8 @@ SCORE_KEYS = [
     "true_occupied", "resolution", "ssim", "occupied_fraction", "free_fraction", "corners",
     "enclosed_areas"]
 SURFACE_KEYS = ["surface_precision", "surface_sensitivity", "surface_f1", "surface_tp",
-                "surface_fp", "surface_length_m", "surface_covered_m", "surface_tau_m"]
+                "surface_fp", "surface_length_m", "surface_covered_m", "surface_tau_m",
+                "surface_align"]
 
 
 def test_score_map_keys_are_the_registered_ones_in_order():

@@ -197,9 +197,10 @@ def test_coarser_estimate_of_a_shipped_world():
     assert r["precision"] > 0.95 and r["sensitivity"] > 0.95
 
 
-def test_surface_form_under_the_cell_forms_alignment():
+def test_surface_form_under_the_alignment_refined_onto_the_surfaces():
     """With the world's surfaces, score_map reports the surface form at the default tau under
-    the alignment it found for the cell form; without them, none of its keys."""
+    the cell form's alignment refined onto the surfaces (surface_align); without them, none
+    of its keys."""
     from metrics.surface import DEFAULT_TAU_M, classify_surface, visible_surfaces
     from worlds.load import world_from_dict
     from worlds.raster import rasterize
@@ -211,9 +212,13 @@ def test_surface_form_under_the_cell_forms_alignment():
     move = np.array([0.15, 0.1, np.deg2rad(2.0)])            # the map's frame in the world
     est = Grid(truth.prob, truth.resolution, compose(inverse(move), truth.origin))
     r = score_map(est, truth, surfaces=segs)
-    al = np.array([r["align"][k] for k in ("x", "y", "yaw")])
+    al = np.array([r["surface_align"][k] for k in ("x", "y", "yaw")])
     expect = classify_surface(est, segs, al, DEFAULT_TAU_M).counts
     assert {k: r[k] for k in expect} == expect
+    # the truth moved rigidly: both alignments recover the move to well within a cell
+    for key in ("align", "surface_align"):
+        got = np.array([r[key][k] for k in ("x", "y", "yaw")])
+        assert np.abs(got[:2] - move[:2]).max() < 0.01 and abs(got[2] - move[2]) < 0.002, key
     assert r["surface_tau_m"] == DEFAULT_TAU_M
     assert r["surface_precision"] == 1.0 and r["surface_sensitivity"] == pytest.approx(1.0)
     # unaligned, the moved map scores far lower: the alignment was applied

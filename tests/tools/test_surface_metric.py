@@ -36,13 +36,15 @@ def test_turn_about_centroid_keeps_the_centroid():
 def test_checks_fail_on_bad_numbers():
     row = {"ref": "office:0", "world": "office_s0", "draw": 0, "shift": 0.0, "p": 0.99,
            "s": 0.94, "moved_p": 0.3, "moved_s": 0.1,
-           **{f"drift_{a:g}": v for a, v in zip(sm.DRIFTS, (0.9, 0.95, 0.8, 0.7))}}
+           **{f"drift_{a:g}": v for a, v in zip(sm.DRIFTS, (0.9, 0.95, 0.8, 0.7))},
+           **{f"turn_{a:g}": 0.95 for a in sm.TURNS}, **{f"turn_exact_{a:g}": 0.97 for a in sm.TURNS}}
     shifted = {**row, "shift": 0.01, "p": 0.96}
     result = {name: ok for name, ok, _ in sm.checks([row, shifted])}
     assert result == {"oracle P and S on every map": False, "oracle P and S on average": False,
                       "world shift moves P and S": False,
                       "map moved one cell diagonally, no alignment": False,
-                      "drift scores lower at each step (F1)": False}
+                      "drift scores lower at each step (F1)": False,
+                      "turned maps score as under the exact inverse turn": False}
 
 
 @pytest.mark.slow
@@ -51,7 +53,7 @@ def test_small_run_passes_every_check(capsys):
     refs = ["office:0", "loop:0"]
     rows = sm.run(refs, refs, draws=1, tau=DEFAULT_TAU_M, jobs=1)
     results = sm.checks(rows)
-    assert len(results) == 7
+    assert len(results) == 8
     failed = [(name, detail) for name, ok, detail in results if not ok]
     assert not failed, failed
     # a turned map read under the exact inverse turn scores as the map itself
