@@ -60,8 +60,8 @@ class AlignConfig:
     point_to_line: bool = True        # finish `icp` and `global` with point-to-line ICP
     line_cut_cells: float = 2.0       # its correspondence cut-off
     line_max_iter: int = 30
-    surface_cut_cells: float = 2.0    # refine_to_surfaces: a cell centre farther than this
-    surface_scale_cells: float = 0.5  # from every surface is an outlier; Cauchy scale
+    surface_cut_cells: float = 2.0    # refine_to_surfaces: pairs a cell centre with a surface
+    surface_sigma_cells: float = 0.1  # this near; Welsch scale of the square's distance to it
     surface_max_iter: int = 30
 
 
@@ -349,11 +349,14 @@ def refine_to_surfaces(pts: np.ndarray, segments: np.ndarray, pose: np.ndarray,
 
     pts: (N, 2) occupied cell centres in the estimate's frame (m), cells `resolution` m square
     and axis-aligned there; segments: (S, 4) x0, y0, x1, y1 of the surfaces, truth frame (m).
-    Each centre is paired with its nearest surface point; its residual is how far the cell's
-    square stays from that point (0 when the surface passes through the square), Cauchy-weighted
-    with scale `surface_scale_cells`; a centre farther than `surface_cut_cells` from every
-    surface counts as an outlier at the cut. Gauss-Newton steps about the centroid, each kept
-    only if it lowers the total cost. Returns (pose (3,), iterations).
+    Each centre is paired with its nearest surface point within `surface_cut_cells`; its
+    residual r is how far the cell's square stays from that point (0 when the surface passes
+    through the square). The cost is Welsch's 1 - exp(-r^2 / 2 sigma^2), sigma =
+    `surface_sigma_cells` (a tenth of a cell): a square a few sigma from its surface, or a
+    centre with no surface within the cut, is a wrong cell (a wall drawn a cell off, clutter)
+    that costs 1 wherever the map goes, so wrong cells cannot drag the map off the right ones.
+    Gauss-Newton steps about the centroid, each kept only if it lowers the total cost.
+    Returns (pose (3,), iterations).
     """
     pose = np.asarray(pose, dtype=np.float64).reshape(3).copy()
     segments = np.asarray(segments, dtype=np.float64).reshape(-1, 4)
@@ -367,9 +370,7 @@ def refine_to_surfaces(pts: np.ndarray, segments: np.ndarray, pose: np.ndarray,
     ab2 = np.maximum(np.sum(ab * ab, axis=1), 1e-18)
     half = 0.5 * resolution
     cut = cfg.surface_cut_cells * resolution
-    scale = cfg.surface_scale_cells * resolution
-    # an outlier costs what a residual at the cut does, so leaving the surfaces never pays
-    r_cap = cut - half
+    sigma = cfg.surface_sigma_cells * resolution
 
     def residuals(p_pose):
         moved = transform_points(p_pose, pts)
@@ -384,23 +385,23 @@ def refine_to_surfaces(pts: np.ndarray, segments: np.ndarray, pose: np.ndarray,
         # the square's reach towards the surface: u in the estimate's (cell) axes
         c, sn = np.cos(p_pose[2]), np.sin(p_pose[2])
         reach = half * (np.abs(c * u[:, 0] + sn * u[:, 1]) + np.abs(-sn * u[:, 0] + c * u[:, 1]))
-        r = np.minimum(np.maximum(dist - reach, 0.0), r_cap)
+        r = np.maximum(dist - reach, 0.0)
         inl = dist <= cut
         return moved[inl], u[inl], r[inl], len(pts) - int(inl.sum())
 
     def cost(p_pose):
         _, _, r, outliers = residuals(p_pose)
-        return float(np.sum(np.log1p((r / scale) ** 2)) + outliers * np.log1p((r_cap / scale) ** 2))
+        return float(np.sum(-np.expm1(-0.5 * (r / sigma) ** 2)) + outliers)
 
     current = cost(pose)
     it = 0
     for it in range(1, cfg.surface_max_iter + 1):
         p, u, r, _ = residuals(pose)
-        on = r > 0.0
+        w = np.exp(-0.5 * (r / sigma) ** 2)
+        on = (r > 0.0) & (w > 1e-6)
         if on.sum() < 3:
             break
-        p, u, r = p[on], u[on], r[on]
-        w = 1.0 / (1.0 + (r / scale) ** 2)
+        p, u, r, w = p[on], u[on], r[on], w[on]
         c = p.mean(0)
         # p' = R(a) (p - c) + c + t, linearised at a = 0: dr = u . (t + a perp(p - c))
         arm = u[:, 1] * (p[:, 0] - c[0]) - u[:, 0] * (p[:, 1] - c[1])

@@ -195,15 +195,54 @@ def test_surface_refinement_ignores_stray_cells_and_needs_surfaces():
 
 def test_surface_refinement_of_a_single_wall_stays_put_along_it():
     """One straight wall defines no position along itself: the fit moves the map across onto
-    the wall (the least move that makes its squares touch it) and, damped, not along it."""
+    the wall (the least move that makes its squares touch it) and, damped, not along it. A
+    map whose squares are a whole cell off is left where it is: such cells are wrong, not
+    misaligned."""
     from metrics.align import refine_to_surfaces
     from metrics.surface import classify_surface
     wall = np.array([[0.0, 0.013, 5.0, 0.013]])
     est = draw([((0.0, 0.013), (5.0, 0.013))])
-    start = np.array([0.0, 0.07, 0.0])
+    # the wall's cell spans y -0.025 .. 0.025: moved up by 0.04, its square misses by 2 mm
+    start = np.array([0.0, 0.04, 0.0])
     assert classify_surface(est, wall, start, 0.001).portion.surface_precision == 0.0
     pose, _ = refine_to_surfaces(est.occupied_xy(), wall, start, RES)
     assert abs(pose[0]) < 1e-3 and abs(pose[2]) < 1e-4
     assert classify_surface(est, wall, pose, 0.001).portion.surface_precision == 1.0
-    # the wall's cell spans y -0.025 .. 0.025: moved up by 0.07, it needs to come down by 0.032
     assert pose[1] == pytest.approx(0.038, abs=0.001)
+    far = np.array([0.0, 0.09, 0.0])
+    np.testing.assert_allclose(refine_to_surfaces(est.occupied_xy(), wall, far, RES)[0], far, atol=1e-6)
+
+
+def _thickened(est, every):
+    """`est` with every `every`-th wall cell doubled by the cell behind it as seen from the
+    room's middle (outwards along the larger axis), as long-range returns draw some walls."""
+    prob = est.prob.copy()
+    rows, cols = np.nonzero(prob == 1.0)
+    d = est.cell_to_world(rows, cols) - est.cell_to_world(rows, cols).mean(0)
+    along_x = np.abs(d[:, 0]) > np.abs(d[:, 1])
+    r = rows + np.where(along_x, 0, np.sign(d[:, 1])).astype(int)
+    c = cols + np.where(along_x, np.sign(d[:, 0]), 0).astype(int)
+    pick = (np.arange(len(rows)) % every == 0) & (r >= 0) & (c >= 0) & (r < prob.shape[0]) & (c < prob.shape[1])
+    prob[r[pick], c[pick]] = 1.0
+    return Grid(prob, est.resolution, est.origin)
+
+
+@pytest.mark.parametrize("config, dragged", [({}, False), ({"surface_sigma_cells": 0.5}, True)])
+def test_surface_refinement_is_not_dragged_by_walls_drawn_a_cell_thick(config, dragged):
+    """Half the wall cells doubled by the cell behind them: those cells sit a cell off their
+    surface. With sigma a tenth of a cell they cost the same wherever the map goes, so the fit
+    keeps the right cells on their surfaces (F1 at the default tau never more than 0.01 below
+    the exact transform's); a wide sigma (half a cell) lets them pull the map off."""
+    from metrics.align import AlignConfig, refine_to_surfaces
+    from metrics.surface import DEFAULT_TAU_M, classify_surface
+    loss = []
+    for seed in range(6):
+        segs, est, move = _turned_room(seed, 0.004)
+        thick = _thickened(est, 2)
+        pts = thick.occupied_xy()
+        truth = prepare_truth(draw([((s[0], s[1]), (s[2], s[3])) for s in segs]))
+        start = align_points(pts, truth, "icp", (0.0, 0.0, 0.0)).pose
+        pose, _ = refine_to_surfaces(pts, segs, start, RES, AlignConfig(**config))
+        loss.append(classify_surface(thick, segs, move, DEFAULT_TAU_M).portion.surface_f1
+                    - classify_surface(thick, segs, pose, DEFAULT_TAU_M).portion.surface_f1)
+    assert (max(loss) > 0.01) == dragged, loss
