@@ -29,8 +29,8 @@ __all__ = ["visible_surfaces", "SurfacePortion", "SurfaceClassification", "class
 
 # tolerance of the surface form (m), a tenth of a 0.05 m cell: the output map draws a wall in
 # the cell that holds its surface, so the oracle's maps (true poses, realistic noise) need no
-# slack beyond the range noise left after averaging (P and S >= 0.959 on 144 maps, mean
-# 0.995 / 0.990), while a map one cell off scores about 0.1 (tools/surface_metric.py)
+# slack beyond the range noise left after averaging (P and S >= 0.96 on 144 maps, mean
+# 0.995 / 0.991), while a map one cell off scores about 0.1 (tools/surface_metric.py)
 DEFAULT_TAU_M = 0.005
 # a face exactly on a cell edge must touch both cells despite floating-point rounding of the
 # transform into map coordinates: a tolerance this small (cells, 5e-8 m) is added to tau
