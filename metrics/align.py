@@ -343,12 +343,13 @@ def _surface_samples(segments: np.ndarray, step: float) -> tuple[np.ndarray, np.
 
 
 def refine_to_surfaces(pts: np.ndarray, segments: np.ndarray, pose: np.ndarray,
-                       resolution: float, cfg: AlignConfig = AlignConfig()) -> tuple[np.ndarray, int]:
+                       resolution: float, cfg: AlignConfig = AlignConfig(),
+                       cell_yaw: float = 0.0) -> tuple[np.ndarray, int]:
     """The surface form's alignment: `pose` (3,) (estimate -> truth, e.g. ICP's) refined so
     that the estimate's occupied cells touch the true surfaces.
 
     pts: (N, 2) occupied cell centres in the estimate's frame (m), cells `resolution` m square
-    and axis-aligned there; segments: (S, 4) x0, y0, x1, y1 of the surfaces, truth frame (m).
+    with their sides turned by `cell_yaw` there (the estimate grid's origin yaw); segments: (S, 4) x0, y0, x1, y1 of the surfaces, truth frame (m).
     Each centre is paired with its nearest surface point within `surface_cut_cells`; its
     residual r is how far the cell's square stays from that point (0 when the surface passes
     through the square). The cost is Welsch's 1 - exp(-r^2 / 2 sigma^2), sigma =
@@ -382,8 +383,8 @@ def refine_to_surfaces(pts: np.ndarray, segments: np.ndarray, pose: np.ndarray,
         e = moved - (a[s] + t[:, None] * ab[s])
         dist = np.hypot(e[:, 0], e[:, 1])
         u = e / np.maximum(dist, 1e-12)[:, None]
-        # the square's reach towards the surface: u in the estimate's (cell) axes
-        c, sn = np.cos(p_pose[2]), np.sin(p_pose[2])
+        # the square's reach towards the surface: u in the cells' axes
+        c, sn = np.cos(p_pose[2] + cell_yaw), np.sin(p_pose[2] + cell_yaw)
         reach = half * (np.abs(c * u[:, 0] + sn * u[:, 1]) + np.abs(-sn * u[:, 0] + c * u[:, 1]))
         r = np.maximum(dist - reach, 0.0)
         inl = dist <= cut

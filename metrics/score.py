@@ -118,7 +118,7 @@ def map_context(estimate: Grid, truth: Grid | PreparedTruth, align: str = "auto"
         surface_pose = al.pose
         if al.mode in ("icp", "global"):
             surface_pose, _ = refine_to_surfaces(est_pts, surfaces, al.pose, estimate.resolution,
-                                                 config or AlignConfig())
+                                                 config or AlignConfig(), estimate.origin[2])
     return MapContext(estimate, t, al, est_pts, transform_points(al.pose, est_pts), ov,
                       occupied_thresh, surfaces, float(tau_m), surface_pose)
 
