@@ -390,14 +390,14 @@ def refine_to_surfaces(pts: np.ndarray, segments: np.ndarray, pose: np.ndarray,
         inl = dist <= cut
         return moved[inl], u[inl], r[inl], len(pts) - int(inl.sum())
 
-    def cost(p_pose):
-        _, _, r, outliers = residuals(p_pose)
-        return float(np.sum(-np.expm1(-0.5 * (r / sigma) ** 2)) + outliers)
+    def evaluate(p_pose):
+        res = residuals(p_pose)
+        return float(np.sum(-np.expm1(-0.5 * (res[2] / sigma) ** 2)) + res[3]), res
 
-    current = cost(pose)
+    current, res = evaluate(pose)
     it = 0
     for it in range(1, cfg.surface_max_iter + 1):
-        p, u, r, _ = residuals(pose)
+        p, u, r, _ = res
         w = np.exp(-0.5 * (r / sigma) ** 2)
         on = (r > 0.0) & (w > 1e-6)
         if on.sum() < 3:
@@ -418,9 +418,9 @@ def refine_to_surfaces(pts: np.ndarray, segments: np.ndarray, pose: np.ndarray,
             ca, sa = np.cos(ang), np.sin(ang)
             cand = compose(np.array([c[0] - (ca * c[0] - sa * c[1]) + tx,
                                      c[1] - (sa * c[0] + ca * c[1]) + ty, ang]), pose)
-            new = cost(cand)
+            new, new_res = evaluate(cand)
             if new < current:
-                pose, current, moved = cand, new, True
+                pose, current, res, moved = cand, new, new_res, True
                 break
             step = 0.5 * step
         if not moved or np.hypot(step[0], step[1]) + abs(step[2]) * radius < cfg.icp_tol_cells * resolution:
