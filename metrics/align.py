@@ -349,7 +349,8 @@ def refine_to_surfaces(pts: np.ndarray, segments: np.ndarray, pose: np.ndarray,
     that the estimate's occupied cells touch the true surfaces.
 
     pts: (N, 2) occupied cell centres in the estimate's frame (m), cells `resolution` m square
-    with their sides turned by `cell_yaw` there (the estimate grid's origin yaw); segments: (S, 4) x0, y0, x1, y1 of the surfaces, truth frame (m).
+    with their sides turned by `cell_yaw` there (the estimate grid's origin yaw); segments:
+    (S, 4) x0, y0, x1, y1 of the surfaces, truth frame (m).
     Each centre is paired with its nearest surface point within `surface_cut_cells`; its
     residual r is how far the cell's square stays from that point (0 when the surface passes
     through the square). The cost is Welsch's 1 - exp(-r^2 / 2 sigma^2), sigma =
@@ -412,7 +413,7 @@ def refine_to_surfaces(pts: np.ndarray, segments: np.ndarray, pose: np.ndarray,
         h[np.diag_indices(3)] += 1e-9 * (1.0 + np.trace(h))
         step = np.linalg.solve(h, -(jac.T @ (w * r)))
         radius = float(np.sqrt(np.mean(np.sum((p - c) ** 2, axis=1))))
-        moved = False
+        accepted = False
         for _ in range(6):
             tx, ty, ang = step
             ca, sa = np.cos(ang), np.sin(ang)
@@ -420,9 +421,9 @@ def refine_to_surfaces(pts: np.ndarray, segments: np.ndarray, pose: np.ndarray,
                                      c[1] - (sa * c[0] + ca * c[1]) + ty, ang]), pose)
             new, new_res = evaluate(cand)
             if new < current:
-                pose, current, res, moved = cand, new, new_res, True
+                pose, current, res, accepted = cand, new, new_res, True
                 break
             step = 0.5 * step
-        if not moved or np.hypot(step[0], step[1]) + abs(step[2]) * radius < cfg.icp_tol_cells * resolution:
+        if not accepted or np.hypot(step[0], step[1]) + abs(step[2]) * radius < cfg.icp_tol_cells * resolution:
             break
     return pose, it
