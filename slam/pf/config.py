@@ -26,7 +26,7 @@ class MotionConfig:
 
     srr: float = 0.03  # srr: translation error (m) per metre translated (GMapping 0.1)
     srt: float = 0.02  # srt: rotation error (rad) per metre translated (GMapping 0.2)
-    str: float = 0.1   # str: translation error (m) per radian rotated
+    str: float = 0.02  # str: translation error (m) per radian rotated (GMapping 0.1)
     stt: float = 0.02  # stt: rotation error (rad) per radian rotated (GMapping 0.2)
     # floor of the motion prior's standard deviations (m, m, rad) in the proposal, so a
     # particle that barely moved still has a proper prior density
