@@ -45,7 +45,7 @@ def test_registered_with_gmapping_defaults():
     assert (c.particles, c.resample_threshold, c.delta) == (30, 0.5, 0.025)
     # the TurtleBot3's odometry (the gyro's heading) and a motion model to match it
     assert c.odometry_heading == "imu"
-    assert (c.motion.srr, c.motion.srt, c.motion.str, c.motion.stt) == (0.03, 0.02, 0.1, 0.02)
+    assert (c.motion.srr, c.motion.srt, c.motion.str, c.motion.stt) == (0.03, 0.02, 0.02, 0.02)
     assert (c.matcher.lsigma, c.matcher.iterations, c.matcher.lstep, c.matcher.astep) == (0.075, 5, 0.05, 0.05)
 
 
