@@ -18,7 +18,9 @@ masks, not divisions, on the kernels' hottest path).
 
 Kernels (compiled) and their plain references (dense arrays, brute force):
   patch_box        the box of cells a particle's scan matching reads
-  read_patch       one particle's map over a box as dense arrays <-> read_patch_ref
+  narrow_box       the cells around the scan's end points, inside that box
+  read_patch       one particle's map over a box as dense arrays (read inside a narrower
+                   one) <-> read_patch_ref
   ray_cells        Amanatides-Woo cell walk      <-> ray_cells_ref (segment/box clipping)
   tiles_bound      how many tiles a scan insertion can make a particle's own
   insert_scans     count updates along the beams, copying shared tiles on first write
@@ -33,7 +35,7 @@ from numba import njit
 
 from slam._kernels.insert import axis_walk
 
-__all__ = ["N_FIELDS", "patch_box", "read_patch", "read_patch_ref", "ray_cells", "tiles_bound",
+__all__ = ["N_FIELDS", "patch_box", "narrow_box", "read_patch", "read_patch_ref", "ray_cells", "tiles_bound",
            "insert_scans",
            "beam_world", "ray_cells_ref", "insert_scan_ref"]
 
@@ -62,18 +64,57 @@ def patch_box(table, grid_meta, pose, half, box):
 
 
 @njit(cache=True, nogil=True)
-def read_patch(table, pool, grid_meta, box, prob, hits, mean_off):
+def narrow_box(grid_meta, pose, points, room, box):
+    """Cut box (4,) int64 (first row, column, rows, columns) down to the cells within `room`
+    cells of the bounding box of points (K, 2, robot frame, m) placed at pose (3,).
+
+    The scan matching reads the cells around the end points of the poses it tries, which stay
+    within a few centimetres of the start: a box around the pose out to the farthest return
+    holds several times as many cells as the returns' own bounding box in a corridor or a
+    room seen from one side."""
+    if points.shape[0] == 0:
+        return
+    ox, oy, res = grid_meta[0], grid_meta[1], grid_meta[2]
+    c, s = math.cos(pose[2]), math.sin(pose[2])
+    x_lo = y_lo = np.inf
+    x_hi = y_hi = -np.inf
+    for k in range(points.shape[0]):
+        x = pose[0] + c * points[k, 0] - s * points[k, 1]
+        y = pose[1] + s * points[k, 0] + c * points[k, 1]
+        x_lo, x_hi = min(x_lo, x), max(x_hi, x)
+        y_lo, y_hi = min(y_lo, y), max(y_hi, y)
+    r0 = max(box[0], int(math.floor((y_lo - oy) / res)) - room)
+    c0 = max(box[1], int(math.floor((x_lo - ox) / res)) - room)
+    r1 = min(box[0] + box[2], int(math.floor((y_hi - oy) / res)) + room + 1)
+    c1 = min(box[1] + box[3], int(math.floor((x_hi - ox) / res)) + room + 1)
+    box[0], box[1], box[2], box[3] = r0, c0, max(r1 - r0, 0), max(c1 - c0, 0)
+
+
+@njit(cache=True, nogil=True)
+def read_patch(table, pool, grid_meta, box, inner, prob, hits, mean_off):
     """One particle's counters over box (first row, column, rows, columns) as dense float32
     arrays, into the first rows x columns of prob, hits (R, C) and mean_off (R, C, 2):
     hits / visits (0 where unvisited), the hit count, and the mean hit point's offset (m)
     from the cell's lower-left corner (0 where no hit). Cells outside the grid or in tiles
-    never written read as unvisited."""
+    never written read as unvisited.
+
+    Only the cells of box inside `inner` (a box of the same form) are read; the others get
+    prob 0 and keep whatever hits and mean_off held (the matcher reads those two only where
+    prob is above the fullness threshold, which is >= 0)."""
     rows, cols, shift = int(grid_meta[3]), int(grid_meta[4]), int(grid_meta[5])
     in_tile = (1 << shift) - 1
     r0, c0 = box[0], box[1]
+    # inner's rows and columns in the patch, clipped to it
+    i0, i1 = max(inner[0] - r0, 0), min(inner[0] + inner[2] - r0, box[2])
+    j0, j1 = max(inner[1] - c0, 0), min(inner[1] + inner[3] - c0, box[3])
     for i in range(box[2]):
+        if i < i0 or i >= i1:
+            prob[i, :box[3]] = 0.0
+            continue
+        prob[i, :j0] = 0.0
+        prob[i, j1:box[3]] = 0.0
         r = r0 + i
-        for j in range(box[3]):
+        for j in range(j0, j1):
             c = c0 + j
             t = -1
             if 0 <= r < rows and 0 <= c < cols:

@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from slam.pf._map_kernel import patch_box, read_patch
+from slam.pf._map_kernel import narrow_box, patch_box, read_patch
 from slam.pf._match_kernel import hill_climb, proposal_moments
 from slam.pf._refine_kernel import line_iterate
 
@@ -29,11 +29,16 @@ def _patch_meta(grid_meta, box):
 
 
 @njit(cache=True, nogil=True)
-def _patch(tables, pool, grid_meta, p, pose, half, box, prob, hits, mean_off):
-    """Particle p's patch around pose: views of the filled part of the buffers, the corner
-    (row, column) and the patch's own [ox, oy, resolution, rows, columns]."""
+def _patch(tables, pool, grid_meta, p, pose, half, points, room, box, inner, prob, hits,
+           mean_off):
+    """Particle p's patch around pose, read within `room` of the scan's end points (K, 2)
+    there: views of the filled part of the buffers, the corner (row, column) and the patch's
+    own [ox, oy, resolution, rows, columns]. The patch keeps the frame of the whole box, so
+    the matcher's arithmetic is the same whichever part of it is read."""
     patch_box(tables[p], grid_meta, pose, half, box)
-    read_patch(tables[p], pool, grid_meta, box, prob, hits, mean_off)
+    inner[:] = box
+    narrow_box(grid_meta, pose, points, room, inner)
+    read_patch(tables[p], pool, grid_meta, box, inner, prob, hits, mean_off)
     nr, nc = box[2], box[3]
     return (prob[:nr, :nc], hits[:nr, :nc], mean_off[:nr, :nc], box[:2].copy(),
             _patch_meta(grid_meta, box))
@@ -41,10 +46,11 @@ def _patch(tables, pool, grid_meta, p, pose, half, box, prob, hits, mean_off):
 
 @njit(cache=True, nogil=True)
 def propose_particles(tables, pool, grid_meta, poses, prior_mean, prior_std, hits, frees, params,
-                      half, gn_iterations, gn_max_angle_step, gn_prior_w, minimum_score):
+                      half, room, gn_iterations, gn_max_angle_step, gn_prior_w, minimum_score):
     """Per particle p (tables (N, TR, TC) into pool, poses (N, 3), motion prior means
     prior_mean (N, 3) and standard deviations prior_std (3,)), matching on the cells within
-    `half` of its pose: the proposal's mean (N, 3), covariance (N, 3, 3) and log eta (N,).
+    `half` of its pose and within `room` of the bounding box of the scan's end points placed
+    there: the proposal's mean (N, 3), covariance (N, 3, 3) and log eta (N,).
     hits, frees: (K, 2) robot frame; gn_prior_w (3,): the Gauss-Newton pull towards the
     prior mean (weights per m^2, m^2, rad^2)."""
     n = poses.shape[0]
@@ -53,12 +59,13 @@ def propose_particles(tables, pool, grid_meta, poses, prior_mean, prior_std, hit
     log_eta = np.empty(n)
     prior_info = np.diag(gn_prior_w)
     box = np.empty(4, dtype=np.int64)
+    inner = np.empty(4, dtype=np.int64)
     prob = np.empty((2 * half, 2 * half), dtype=np.float32)
     hit_count = np.empty((2 * half, 2 * half), dtype=np.float32)
     mean_off = np.empty((2 * half, 2 * half, 2), dtype=np.float32)
     for p in range(n):
-        pr, hc, mo, corner, meta = _patch(tables, pool, grid_meta, p, poses[p], half, box, prob,
-                                          hit_count, mean_off)
+        pr, hc, mo, corner, meta = _patch(tables, pool, grid_meta, p, poses[p], half, hits, room,
+                                          box, inner, prob, hit_count, mean_off)
         start, score = hill_climb(pr, mo, corner, grid_meta, poses[p], hits, frees, params)
         refined = score > minimum_score and gn_iterations > 0
         info = np.zeros((3, 3))
@@ -85,15 +92,15 @@ def box_patch(table, pool, grid_meta, box):
     nr, nc = int(box[2]), int(box[3])
     prob, hits = np.empty((nr, nc), np.float32), np.empty((nr, nc), np.float32)
     mean_off = np.empty((nr, nc, 2), np.float32)
-    read_patch(table, pool, grid_meta, box, prob, hits, mean_off)
+    read_patch(table, pool, grid_meta, box, box, prob, hits, mean_off)
     return prob, hits, mean_off, _patch_meta(grid_meta, box)
 
 
 def propose_particles_ref(tables, pool, grid_meta, poses, prior_mean, prior_std, hits, frees,
-                          params, half, gn_iterations, gn_max_angle_step, gn_prior_w,
+                          params, half, room, gn_iterations, gn_max_angle_step, gn_prior_w,
                           minimum_score):
     """propose_particles written as a Python loop over the single-particle kernels, each
-    particle's patch in arrays of its own."""
+    particle's patch in arrays of its own, every cell of its box read (room is not used)."""
     out = []
     for p in range(len(poses)):
         box = np.empty(4, dtype=np.int64)

@@ -118,6 +118,24 @@ def line_normal_equations(prob, hit_count, mean_off, grid_meta, fullness, kernel
     (read_patch); grid_meta: its [ox, oy, resolution, R, C]; pts_robot, free_robot: (K, 2) end
     points and their free points, robot frame. Returns H (3, 3), g (3,) (the step is
     H^-1 g, as gauss_newton.gn_update takes it) and the cost, in squared cells."""
+    known, normals = _normal_cache(prob)
+    return _normal_equations(prob, hit_count, mean_off, grid_meta, fullness, kernel, pts_robot,
+                             free_robot, pose, known, normals)
+
+
+@njit(cache=True, nogil=True)
+def _normal_cache(prob):
+    """Per patch cell: whether its wall normal is known (R, C), and the normal and line flag
+    (R, C, 3). A cell's wall is a property of the map, the same at every pose tried."""
+    return (np.zeros(prob.shape, dtype=np.bool_),
+            np.empty((prob.shape[0], prob.shape[1], 3), dtype=np.float64))
+
+
+@njit(cache=True, nogil=True)
+def _normal_equations(prob, hit_count, mean_off, grid_meta, fullness, kernel, pts_robot,
+                      free_robot, pose, known, normals):
+    """line_normal_equations with the wall normals of the cells met so far cached in known,
+    normals (_normal_cache)."""
     ox, oy, res = grid_meta[0], grid_meta[1], grid_meta[2]
     c, s = math.cos(pose[2]), math.sin(pose[2])
     H = np.zeros((3, 3))
@@ -136,7 +154,12 @@ def line_normal_equations(prob, hit_count, mean_off, grid_meta, fullness, kernel
         if not found:
             continue
         ex, ey = -s * px - c * py, c * px - s * py     # d(world point) / d(yaw)
-        nx, ny, line = _wall_normal(prob, hit_count, mean_off, ox, oy, res, br, bc, fullness)
+        if not known[br, bc]:
+            nx, ny, line = _wall_normal(prob, hit_count, mean_off, ox, oy, res, br, bc, fullness)
+            known[br, bc] = True
+            normals[br, bc, 0], normals[br, bc, 1] = nx, ny
+            normals[br, bc, 2] = 1.0 if line else 0.0
+        nx, ny, line = normals[br, bc, 0], normals[br, bc, 1], normals[br, bc, 2] > 0.0
         for q in range(1 if line else 2):
             if line:
                 ux, uy = nx, ny
@@ -215,12 +238,13 @@ def line_iterate(prob, hit_count, mean_off, grid_meta, fullness, kernel, pts_rob
     d^T prior_info d towards prior. Returns the pose (3,) and the information (3, 3) there,
     prior included (the normal equations' H)."""
     est = pose.copy()
+    known, normals = _normal_cache(prob)
     for _ in range(iterations):
-        H, g, _ = line_normal_equations(prob, hit_count, mean_off, grid_meta, fullness, kernel,
-                                        pts_robot, free_robot, est)
+        H, g, _ = _normal_equations(prob, hit_count, mean_off, grid_meta, fullness, kernel,
+                                    pts_robot, free_robot, est, known, normals)
         if not gn_update(H, g, est, prior, prior_info, max_angle_step):
             break
-    H, g, _ = line_normal_equations(prob, hit_count, mean_off, grid_meta, fullness, kernel,
-                                    pts_robot, free_robot, est)
+    H, g, _ = _normal_equations(prob, hit_count, mean_off, grid_meta, fullness, kernel,
+                                pts_robot, free_robot, est, known, normals)
     add_prior(H, g, est, prior, prior_info)
     return est, H

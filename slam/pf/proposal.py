@@ -14,7 +14,11 @@ from slam.pf.config import PfConfig
 from slam.pf.maps import TiledMaps
 from slam.pose import wrap_angle
 
-__all__ = ["refine_pose", "propose"]
+__all__ = ["refine_pose", "propose", "MATCH_ROOM"]
+
+# m around the scan's end points read from a particle's map: the matcher's moves from the
+# proposal's start stay far inside it
+MATCH_ROOM = 0.5
 
 
 def refine_pose(maps: TiledMaps, p: int, box: np.ndarray, hits: np.ndarray, frees: np.ndarray,
@@ -46,15 +50,17 @@ def propose(cfg: PfConfig, maps: TiledMaps, poses: np.ndarray, prior_mean: np.nd
     points (K, 2) one cell closer to the lidar (robot frame): each particle matched on its
     own map, refined, and its pose drawn from the Gaussian fitted around the result."""
     m = cfg.matcher
-    # per particle, a dense patch of its map: the reach of the farthest beam end plus room
-    # for the matcher's moves, clipped to the tiles the particle has written
+    # per particle, a dense patch of its map: the bounding box of the scan's end points at its
+    # pose plus room for the matcher's moves, clipped to the tiles the particle has written
+    # (half bounds the patch's buffers: the reach of the farthest end point plus that room)
     reach = float(np.max(np.linalg.norm(hits, axis=1))) if len(hits) else 0.0
-    half = int(np.ceil((reach + 0.5) / cfg.delta))
+    half = int(np.ceil((reach + MATCH_ROOM) / cfg.delta))
+    room = int(np.ceil(MATCH_ROOM / cfg.delta))
     prior_w = m.gn_prior_weight / prior_std ** 2   # the prior as Gauss-Newton weights
     mean, cov, log_eta = propose_particles(
         maps.tables, maps.pool, maps.grid_meta, np.ascontiguousarray(poses, dtype=np.float64),
         np.ascontiguousarray(prior_mean, dtype=np.float64),
-        np.ascontiguousarray(prior_std, dtype=np.float64), hits, frees, params, half,
+        np.ascontiguousarray(prior_std, dtype=np.float64), hits, frees, params, half, room,
         int(m.gn_iterations), float(m.gn_max_angle_step), prior_w, float(m.minimum_score))
     # a tiny jitter keeps the Cholesky factor defined when the grid likelihood is one-peaked
     chol = np.linalg.cholesky(cov + np.diag([1e-8, 1e-8, 1e-8]))

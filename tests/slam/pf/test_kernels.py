@@ -2,8 +2,8 @@
 import numpy as np
 import pytest
 
-from slam.pf._map_kernel import (insert_scan_ref, patch_box, ray_cells, ray_cells_ref,
-                                  read_patch)
+from slam.pf._map_kernel import (insert_scan_ref, narrow_box, patch_box, ray_cells,
+                                  ray_cells_ref, read_patch)
 from slam.pf._match_kernel import (beam_cache, grid_likelihoods, hill_climb, hill_climb_ref,
                                     make_params, proposal_moments, proposal_moments_ref,
                                     score_above, score_and_likelihood, score_and_likelihood_ref)
@@ -36,7 +36,7 @@ def _patch(maps, p, box):
     box = np.asarray(box, dtype=np.int64)
     prob, hits = np.empty(box[2:], np.float32), np.empty(box[2:], np.float32)
     mean_off = np.empty((*box[2:], 2), np.float32)
-    read_patch(maps.tables[p], maps.pool, maps.grid_meta, box, prob, hits, mean_off)
+    read_patch(maps.tables[p], maps.pool, maps.grid_meta, box, box, prob, hits, mean_off)
     return prob, mean_off, box[:2].copy()
 
 
@@ -144,9 +144,10 @@ def test_score_likelihood_hill_climb_and_proposal_match_references(seed):
 @pytest.mark.kernel
 @pytest.mark.parametrize("seed", range(3))
 def test_propose_particles_is_the_loop_over_the_single_particle_kernels(seed):
-    """The compiled proposal reuses one set of patch buffers for all particles; it must give
-    what separate arrays per particle give, with boxes of different sizes (clipped to each
-    particle's tiles) and particles whose match is ignored (below minimum_score)."""
+    """The compiled proposal reuses one set of patch buffers for all particles and reads only
+    the cells within `room` of the scan's end points; it must give what separate arrays per
+    particle, every cell read, give, with boxes of different sizes (clipped to each particle's
+    tiles) and particles whose match is ignored (below minimum_score)."""
     rng = np.random.default_rng(seed)
     maps = TiledMaps(3, np.zeros(2), 2.0, 0.05, tile=8)
     for step in range(4):
@@ -162,7 +163,7 @@ def test_propose_particles_is_the_loop_over_the_single_particle_kernels(seed):
     poses = np.c_[rng.uniform(-0.03, 0.03, (3, 2)), rng.uniform(-0.02, 0.02, 3)]
     poses[2] += [0.4, 0.3, 0.0]        # its box reaches past the tiles written
     args = (maps.tables, maps.pool, maps.grid_meta, poses, poses + 0.001, np.full(3, 0.02),
-            hits, frees, PARAMS, 30, 5, 0.2, np.full(3, 100.0))
+            hits, frees, PARAMS, 30, 10, 5, 0.2, np.full(3, 100.0))
     for minimum_score in (0.0, 1e9):
         got = propose_particles(*args, minimum_score)
         want = propose_particles_ref(*args, minimum_score)
@@ -185,6 +186,27 @@ def test_patch_box_is_clipped_to_the_tiles_written():
     patch_box(maps.tables[0], maps.grid_meta, np.zeros(3), 3, box)
     centre = int(np.floor(-maps.grid_meta[0] / 0.05))
     assert list(box) == [centre - 3, centre - 3, 6, 6]
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_narrow_box_is_the_points_bounding_box_grown_by_the_room(seed):
+    """narrow_box against numpy: the cells within `room` of the placed points' bounding box,
+    inside the box it was given."""
+    rng = np.random.default_rng(seed)
+    grid_meta = np.array([-10.0, -10.0, 0.05, 400, 400, 3])
+    pose = np.r_[rng.uniform(-1, 1, 2), rng.uniform(-np.pi, np.pi)]
+    pts = rng.uniform(-2.0, 2.0, (50, 2)) * [1.0, 0.3]
+    c, s = np.cos(pose[2]), np.sin(pose[2])
+    world = pose[:2] + pts @ np.array([[c, s], [-s, c]])
+    cells = np.floor((world - grid_meta[:2]) / 0.05).astype(int)     # (column, row)
+    for start, room in (([0, 0, 400, 400], 10), ([180, 170, 40, 60], 4)):
+        box = np.array(start, np.int64)
+        narrow_box(grid_meta, pose, pts, room, box)
+        r0 = max(start[0], cells[:, 1].min() - room)
+        c0 = max(start[1], cells[:, 0].min() - room)
+        r1 = min(start[0] + start[2], cells[:, 1].max() + room + 1)
+        c1 = min(start[1] + start[3], cells[:, 0].max() + room + 1)
+        assert list(box) == [r0, c0, max(r1 - r0, 0), max(c1 - c0, 0)]
 
 
 def _room_patch(rng):

@@ -4,7 +4,8 @@ import numpy as np
 import pytest
 
 from slam.pf._map_kernel import read_patch, read_patch_ref
-from slam.pf._refine_kernel import line_normal_equations, line_normal_equations_ref
+from slam._kernels.gauss_newton import add_prior, gn_update
+from slam.pf._refine_kernel import line_iterate, line_normal_equations, line_normal_equations_ref
 from slam.pf.proposal import refine_pose
 from slam.pf.maps import TiledMaps
 from tests.slam.pf.test_kernels import ORIGIN, PARAMS, _frees
@@ -92,6 +93,17 @@ def test_prior_holds_the_unconstrained_direction():
     assert std[1] < 0.005 and std[0] > 2.0 * std[1]
 
 
+def _centre_patch(maps):
+    """(prob, hits, mean_off, meta) of particle 0's 60 x 60 cells around the map's centre
+    (0.05 m cells), read by the reference."""
+    rows = int(maps.grid_meta[3])
+    box = np.array([rows // 2 - 30, rows // 2 - 30, 60, 60], dtype=np.int64)
+    prob, hits, mean_off = read_patch_ref(maps.dense(0), box)
+    meta = np.array([maps.grid_meta[0] + box[1] * 0.05, maps.grid_meta[1] + box[0] * 0.05, 0.05,
+                     *prob.shape])
+    return prob, hits, mean_off, meta
+
+
 @pytest.mark.kernel
 @pytest.mark.parametrize("seed", range(3))
 def test_read_patch_and_line_normal_equations_match_references(seed):
@@ -107,14 +119,22 @@ def test_read_patch_and_line_normal_equations_match_references(seed):
         # buffers larger than the box and full of stale values, as the proposal reuses them
         got = (np.full((70, 70), 7, np.float32), np.full((70, 70), 7, np.float32),
                np.full((70, 70, 2), 7, np.float32))
-        read_patch(maps.tables[0], maps.pool, maps.grid_meta, box, *got)
+        read_patch(maps.tables[0], maps.pool, maps.grid_meta, box, box, *got)
         ref = read_patch_ref(maps.dense(0), box)
         for a, b in zip(got, ref):
             np.testing.assert_allclose(a[:box[2], :box[3]], b, atol=1e-5)
-    box = np.array([rows // 2 - 30, rows // 2 - 30, 60, 60], dtype=np.int64)
-    prob, hits, mean_off = read_patch_ref(maps.dense(0), box)
-    meta = np.array([maps.grid_meta[0] + box[1] * 0.05, maps.grid_meta[1] + box[0] * 0.05, 0.05,
-                     *prob.shape])
+        # read inside a narrower box: the cells there as before, prob 0 around them
+        inner = box + [7, 5, -15, -12]
+        got[0][:] = 7
+        read_patch(maps.tables[0], maps.pool, maps.grid_meta, box, inner, *got)
+        rows_in, cols_in = slice(7, box[2] - 8), slice(5, box[3] - 7)
+        for a, b in zip(got, ref):
+            np.testing.assert_allclose(a[rows_in, cols_in], b[rows_in, cols_in], atol=1e-5)
+        outside = np.ones(box[2:], bool)
+        outside[rows_in, cols_in] = False
+        assert np.all(got[0][:box[2], :box[3]][outside] == 0)
+        assert np.any(ref[0][outside] > 0)
+    prob, hits, mean_off, meta = _centre_patch(maps)
     pose = np.r_[rng.uniform(-0.2, 0.2, 2), rng.uniform(-np.pi, np.pi)]
     pts = _box_scan(rng, pose, beams=120, sigma=0.01)
     frees = _frees(pts)
@@ -125,6 +145,36 @@ def test_read_patch_and_line_normal_equations_match_references(seed):
     np.testing.assert_allclose(g, g_ref, rtol=1e-6, atol=1e-6)
     assert cost == pytest.approx(cost_ref, rel=1e-9)
     assert np.abs(g).sum() > 0      # the scan does read the map
+
+
+@pytest.mark.kernel
+def test_line_iterate_is_gn_update_on_fresh_normal_equations():
+    """line_iterate keeps the walls' normals of the cells it met from one step to the next; it
+    must take the steps that normal equations computed afresh at every pose give."""
+    rng = np.random.default_rng(3)
+    maps = TiledMaps(1, np.zeros(2), 2.0, 0.05, tile=8)
+    for _ in range(4):
+        pose = np.r_[rng.uniform(-0.3, 0.3, 2), rng.uniform(-np.pi, np.pi)]
+        ends = _box_scan(rng, pose, beams=120, sigma=0.01)
+        maps.insert(pose[None, :], ORIGIN, ends, np.ones(len(ends), bool))
+    prob, hits, mean_off, meta = _centre_patch(maps)
+    truth = np.r_[rng.uniform(-0.2, 0.2, 2), rng.uniform(-np.pi, np.pi)]
+    pts = _box_scan(rng, truth, beams=120, sigma=0.01)
+    frees = _frees(pts)
+    start = truth + [0.03, -0.02, 0.02]
+    prior, prior_info = start.copy(), np.diag([10.0, 10.0, 10.0])
+    est, info = line_iterate(prob, hits, mean_off, meta, 0.3, 1, pts, frees, start, 6, 0.2,
+                             prior, prior_info)
+    want = start.copy()
+    for _ in range(6):
+        H, g, _ = line_normal_equations(prob, hits, mean_off, meta, 0.3, 1, pts, frees, want)
+        if not gn_update(H, g, want, prior, prior_info, 0.2):
+            break
+    H, g, _ = line_normal_equations(prob, hits, mean_off, meta, 0.3, 1, pts, frees, want)
+    add_prior(H, g, want, prior, prior_info)
+    np.testing.assert_array_equal(est, want)
+    np.testing.assert_array_equal(info, H)
+    assert np.hypot(*(est[:2] - start[:2])) > 0.01      # it did move
 
 
 def test_refinement_puts_the_wall_at_its_face_not_its_cell_centre():
