@@ -39,7 +39,7 @@ STATUSES = ("ok", "failed")
 _NAME_FIELDS = ("world", "algo")
 # whole numbers that name files (<repeat>.npz, gt_s<log_seed>.npz) or seed generators;
 # repeat is required, the others may be null (an outside row has no SLAM seed)
-_COUNT_FIELDS = ("repeat", "draw")
+_COUNT_FIELDS = ("repeat", "draw", "same_as")
 _SEED_FIELDS = ("log_seed", "slam_seed")
 _INT_LIMIT = 2 ** 63
 # read as text by the tables and the report

@@ -274,7 +274,9 @@ class Scheduler:
     costliest first, so the workers compile side by side instead of each compiling every
     algorithm itself; a ready log's SLAM tasks wait until every compile job is done
     (`compile_done`). A log that cannot be trusted gives failed rows instead of tasks. Each
-    finished task (`task_done`) stores its row and arrays at once.
+    finished task (`task_done`) stores its row and arrays at once. A deterministic algorithm
+    (Slam.deterministic) runs once per log: its other tasks there differ only in the SLAM seed
+    and take that run's row, marked `same_as` its repeat.
     """
 
     def __init__(self, plan: RunPlan, store: ResultStore, bar: Progress, outcome: RunOutcome,
@@ -288,6 +290,7 @@ class Scheduler:
         self.warming: set = set()   # compile jobs still running
         self.waiting: list = []     # (log key, log source) whose tasks wait for the compile jobs
         self.compile_started = False
+        self.followers: dict = {}   # task key -> tasks that take its row (deterministic algorithms)
 
     def run(self) -> RunOutcome:
         """Every job of the plan, until none is pending (or Ctrl-C, or a worker died)."""
@@ -353,10 +356,24 @@ class Scheduler:
         if self.warming:
             self.waiting.append((lkey, log_source))
             return
-        for t in self.plan.by_log[lkey]:
+        for t in self._leaders(self.plan.by_log[lkey]):
             self._submit(self.task_done, t, execute, t, self._world(t.world), log_source,
                          self.plan.configs[t.algo], self.spec.noise, self.spec.vary,
                          self.plan.classes[t.algo])
+
+    def _leaders(self, tasks: list[Task]) -> list[Task]:
+        """The tasks of one log that run: a deterministic algorithm's first task per draw; its
+        other tasks there wait in `followers` for that task's row."""
+        leaders, first = [], {}
+        for t in tasks:
+            if self.plan.classes[t.algo].deterministic:
+                same = (t.world, t.algo, t.log_seed, t.draw)
+                if same in first:
+                    self.followers.setdefault(first[same].key, []).append(t)
+                    continue
+                first[same] = t
+            leaders.append(t)
+        return leaders
 
     def _fail_tasks(self, lkey: tuple[str, int], problem: str) -> None:
         self.bar.note(f"{lkey[0]} seed {lkey[1]}: {problem}")
@@ -387,6 +404,13 @@ class Scheduler:
         row, arrays = self.ex.result(fut)
         row["map_file"] = save_arrays(self.plan.out_dir, task, arrays)
         row["finished_at"] = _now()
+        self._finished(task, row)
+        for f in self.followers.pop(task.key, []):
+            self._finished(f, dict(row, repeat=int(f.repeat), slam_seed=int(f.slam_seed),
+                                   same_as=int(task.repeat)))
+
+    def _finished(self, task: Task, row: dict) -> None:
+        """Store the row of `task` and count it."""
         self.store.add(row)
         ok = row["status"] == "ok"
         self.outcome.ok += ok

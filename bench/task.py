@@ -195,8 +195,8 @@ def new_row(task, noise: str = "", vary: str = "slam") -> dict:
     """The fields every row of `task` (bench.plan.Task) has, status "ok" until told otherwise."""
     return {"world": task.world, "algo": task.algo, "repeat": int(task.repeat), "status": "ok",
             "error": None, "log_seed": int(task.log_seed), "slam_seed": int(task.slam_seed),
-            "draw": int(task.draw), "noise": str(noise), "vary": vary, "versions": versions(),
-            **machine()}
+            "draw": int(task.draw), "noise": str(noise), "vary": vary, "same_as": None,
+            "versions": versions(), **machine()}
 
 
 def machine() -> dict:

@@ -92,7 +92,9 @@ class Slam(ABC):
     warmup_scans: how many scans the benchmark's untimed warm-up run needs to reach every
         compiled kernel once;
     compile_cost_s: its cold compile time, s (a rough figure: the benchmark sends the compile
-        jobs out heaviest first so the workers finish them together).
+        jobs out heaviest first so the workers finish them together);
+    deterministic: its output does not depend on the seed of `rng`: the benchmark runs it once
+        per log and gives the repeats that differ only in the SLAM seed that run's row.
     It is built as `Cls(config, start, rng)`; `self.config` is what config.yaml records. What
     depends on the sensor (ranges, beam spacing, rates) it derives from the log in
     `derive_config`.
@@ -105,6 +107,7 @@ class Slam(ABC):
     family: ClassVar[str | None] = None
     warmup_scans: ClassVar[int] = 12
     compile_cost_s: ClassVar[float] = 0.0
+    deterministic: ClassVar[bool] = False
 
     def __init__(self, config, start: np.ndarray, rng: np.random.Generator):
         self.config = config
@@ -148,7 +151,7 @@ def check_algorithm_class(cls: type, name: str = "") -> None:
     missing = sorted(getattr(cls, "__abstractmethods__", ()))
     if missing:
         raise TypeError(f"algorithm '{label}' does not implement {', '.join(missing)}")
-    for attr in ("needs_odometry", "uses_ground_truth"):
+    for attr in ("needs_odometry", "uses_ground_truth", "deterministic"):
         if not isinstance(getattr(cls, attr), bool):
             raise TypeError(f"algorithm '{label}': {attr} must be True or False, "
                             f"got {getattr(cls, attr)!r}")

@@ -21,6 +21,7 @@ class OracleSlam(Slam):
     config_class = OracleConfig
     uses_ground_truth = True
     compile_cost_s = 3.0   # s, cold, alone (docs/benchmark.md#cost)
+    deterministic = True   # no draw from rng: every SLAM seed gives the same run
 
     def __init__(self, config: OracleConfig, start: np.ndarray, rng: np.random.Generator):
         super().__init__(config, start, rng)

@@ -2,6 +2,7 @@
 
 fake_map: maps scan end points at the true pose plus seeded noise (needs ground truth, like
 the oracle), so repeats differ with the SLAM seed and the metrics have real values.
+fake_fixed: fake_map with the same draws whatever the seed, declared deterministic.
 fake_raise: raises on its third scan; fake_diverge: its trajectory runs off to 100 m;
 fake_interrupt: a Ctrl-C once INTERRUPT["after"] runs are done, else behaves as fake_map.
 """
@@ -66,6 +67,17 @@ class _Base(Slam):
 @register("fake_map")
 class FakeMap(_Base):
     pass
+
+
+@register("fake_fixed")
+class FakeFixed(_Base):
+    """fake_map without noise: every SLAM seed gives the same run."""
+
+    deterministic = True
+
+    def update(self, scan, odom, imu, truth=None):
+        self.rng = np.random.default_rng(0)   # the same draws whatever the seed
+        return super().update(scan, odom, imu, truth)
 
 
 @register("fake_raise")

@@ -191,6 +191,45 @@ def test_each_algorithm_is_compiled_once_before_any_task(tiny, tmp_path, monkeyp
     assert sorted(a for k, a in calls if k == "compile") == ["fake_diverge", "fake_map"]
 
 
+@pytest.mark.parametrize("vary", ["slam", "data"])
+def test_a_deterministic_algorithm_runs_once_per_log(tiny, tmp_path, monkeypatch, vary):
+    """fake_fixed (deterministic) runs once per log and its other repeats there take that
+    row, marked same_as; fake_map runs every repeat. Re-recorded logs (vary data) each run."""
+    import bench.runner as runner
+    ran = []
+    real_execute = runner.execute
+
+    def execute_spy(task, *a, **k):
+        ran.append((task.algo, task.repeat))
+        return real_execute(task, *a, **k)
+
+    monkeypatch.setattr(runner, "execute", execute_spy)
+    spec = _spec(tiny, algos=("fake_fixed", "fake_map"), repeats=3, draws=2 if vary == "slam" else 1,
+                 vary=vary)
+    out = run_benchmark(spec, tmp_path / "run", jobs=1, progress=False)
+    assert out.complete and out.ok == out.total == (12 if vary == "slam" else 6)
+    rows = {(r["algo"], r["repeat"]): r for r in read_rows(tmp_path / "run")}
+    if vary == "slam":
+        assert sorted(r for a, r in ran if a == "fake_fixed") == [0, 3]     # one per draw
+        for rep, lead in ((1, 0), (2, 0), (4, 3), (5, 3)):
+            row, first = rows[("fake_fixed", rep)], rows[("fake_fixed", lead)]
+            assert row["same_as"] == lead and row["slam_seed"] == rep % 3
+            assert {k: v for k, v in row.items() if k not in ("repeat", "slam_seed", "same_as")} == \
+                {k: v for k, v in first.items() if k not in ("repeat", "slam_seed", "same_as")}
+    else:
+        assert sorted(r for a, r in ran if a == "fake_fixed") == [0, 1, 2]
+    assert sorted(r for a, r in ran if a == "fake_map") == sorted(r for a, r in rows if a == "fake_map")
+    assert all(r["same_as"] is None for (a, rep), r in rows.items()
+               if a == "fake_map" or vary == "data" or rep % 3 == 0)
+    # the copies are the rows running every repeat gives (their map_file is the run's map)
+    monkeypatch.setattr(fakes.FakeFixed, "deterministic", False)
+    run_benchmark(spec, tmp_path / "every", jobs=1, progress=False)
+    own = ("same_as", "map_file")
+    assert comparable({k: v for k, v in r.items() if k not in own}
+                      for r in read_rows(tmp_path / "every")) == \
+        comparable({k: v for k, v in r.items() if k not in own} for r in rows.values())
+
+
 def test_compile_jobs_go_out_costliest_first_by_the_classes_estimate(monkeypatch):
     from bench.runner import RunPlan
     from slam import registry
