@@ -36,7 +36,7 @@ from bench.plan import (RunSpec, Task, load_config_checked, load_plugins, make_t
 from bench.progress import Progress
 from bench.results import RUN_NAME, ResultStore, read_run, run_spec
 from bench.rundir import check_run_dir, run_lock, save_arrays, save_gt, save_truth, write_run_json
-from bench.task import WorldInfo, compile_algorithm, execute, new_row, record_log
+from bench.task import WorldInfo, compile_algorithm, compile_scoring, execute, new_row, record_log
 
 __all__ = ["run_benchmark", "RunOutcome", "RunPlan", "Scheduler", "load_worlds", "cross_lidars",
            "print_outcome"]
@@ -271,9 +271,10 @@ class Scheduler:
 
     `run` looks for every log (found in the cache or given: `log_ready`; else a recording job,
     whose end is `log_recorded`). The first ready log sends one compile job per algorithm,
-    costliest first, so the workers compile side by side instead of each compiling every
-    algorithm itself; a ready log's SLAM tasks wait until every compile job is done
-    (`compile_done`). A log that cannot be trusted gives failed rows instead of tasks. Each
+    costliest first, and after the first of them one for the output map and the metrics every
+    task shares (on that log's head), so the workers compile side by side instead of each
+    compiling every algorithm itself; a ready log's SLAM tasks wait until every compile job is
+    done (`compile_done`). A log that cannot be trusted gives failed rows instead of tasks. Each
     finished task (`task_done`) stores its row and arrays at once. A deterministic algorithm
     (Slam.deterministic) runs once per log: its other tasks there differ only in the SLAM seed
     and take that run's row, marked `same_as` its repeat.
@@ -349,10 +350,15 @@ class Scheduler:
     def _send_tasks(self, lkey: tuple[str, int], log_source) -> None:
         if not self.compile_started:
             self.compile_started = True
-            for a in self.plan.compile_order():
+            for n, a in enumerate(self.plan.compile_order()):
                 self.warming.add(self._submit(self.compile_done, a, compile_algorithm, a,
                                               log_source, self.plan.configs[a],
                                               self.plan.classes[a]))
+                if n == 0:
+                    # the kernels every task shares, beside the costliest algorithm's, so
+                    # the other algorithms' jobs find them compiled
+                    self.warming.add(self._submit(self.compile_done, lkey[0], compile_scoring,
+                                                  self._world(lkey[0]), log_source))
         if self.warming:
             self.waiting.append((lkey, log_source))
             return

@@ -129,6 +129,40 @@ def compile_algorithm(algo: str, log_source, config=None, algo_cls: type | None 
     return algo
 
 
+# scans of the log's head the scoring warm-up maps: a few metres of walls, enough that every
+# metric (the alignment's ICP among them) runs its compiled path
+SCORING_WARMUP_SCANS = 100
+
+
+def compile_scoring(world: WorldInfo, log_source) -> str:
+    """Build the output map of the log's first scans (SCORING_WARMUP_SCANS) at their true
+    poses (the start pose for a log without them) and score it against `world`, untimed and
+    discarded; returns the world's key.
+
+    Every task builds its map with the same output map and scores it with the same metrics;
+    the runner sends this job beside the costliest algorithm's compile job, so those shared
+    kernels are compiled once, by one worker, instead of by every algorithm's job at once.
+    """
+    try:
+        from slam.output_map import OutputMapConfig, output_map_from_trajectory
+        from slam.pose import interpolate_poses
+        from slam.replay import scans_of
+        log = _load_log(log_source)
+        n = min(SCORING_WARMUP_SCANS, log.n_scans)
+        times = log.scan_t[:n]
+        if log.has_ground_truth:
+            poses = interpolate_poses(times, log.gt_t, log.gt_pose)
+        else:
+            poses = np.tile(np.asarray(log.start_pose, dtype=np.float64), (n, 1))
+        grid = output_map_from_trajectory(OutputMapConfig(), scans_of(log)[:n], times, poses)
+        _score(grid, world.truth, world.surfaces)
+        if log.has_ground_truth:
+            score_trajectory(times, poses, log.gt_t, log.gt_pose)
+    except Exception:
+        pass  # the tasks report what is wrong
+    return world.key
+
+
 def check_divergence(poses: np.ndarray, bounds, margin: float = DIVERGE_MARGIN_M) -> str | None:
     """None if the (N, 3) trajectory is finite and within `bounds` +- margin, else why not."""
     poses = np.asarray(poses, dtype=np.float64).reshape(-1, 3)

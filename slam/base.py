@@ -91,8 +91,9 @@ class Slam(ABC):
         "Cartographer"; bench.study), None for none;
     warmup_scans: how many scans the benchmark's untimed warm-up run needs to reach every
         compiled kernel once;
-    compile_cost_s: its cold compile time, s (a rough figure: the benchmark sends the compile
-        jobs out heaviest first so the workers finish them together);
+    compile_cost_s: the cold compile time of its own kernels, s (the output map and the
+        metrics every algorithm shares not counted; a rough figure: the benchmark sends the
+        compile jobs out heaviest first so the workers finish them together);
     deterministic: its output does not depend on the seed of `rng`: the benchmark runs it once
         per log and gives the repeats that differ only in the SLAM seed that run's row.
     It is built as `Cls(config, start, rng)`; `self.config` is what config.yaml records. What

@@ -169,28 +169,57 @@ def test_dead_worker_is_reported_and_rows_kept(tiny, tmp_path):
 
 
 def test_each_algorithm_is_compiled_once_before_any_task(tiny, tmp_path, monkeypatch):
+    """One compile job per algorithm, costliest first, and the shared scoring job right after
+    the first of them; every task after all of them."""
     import bench.runner as runner
     calls = []
-    real_compile, real_execute = runner.compile_algorithm, runner.execute
+    real_compile, real_scoring, real_execute = (runner.compile_algorithm, runner.compile_scoring,
+                                                runner.execute)
 
     def compile_spy(algo, *a, **k):
         calls.append(("compile", algo))
         return real_compile(algo, *a, **k)
+
+    def scoring_spy(world, *a, **k):
+        calls.append(("scoring", world.key))
+        return real_scoring(world, *a, **k)
 
     def execute_spy(task, *a, **k):
         calls.append(("task", task.algo))
         return real_execute(task, *a, **k)
 
     monkeypatch.setattr(runner, "compile_algorithm", compile_spy)
+    monkeypatch.setattr(runner, "compile_scoring", scoring_spy)
     monkeypatch.setattr(runner, "execute", execute_spy)
+    monkeypatch.setattr(fakes.FakeDiverge, "compile_cost_s", 1.0)
     out = run_benchmark(_spec(tiny, algos=("fake_map", "fake_diverge")), tmp_path / "run", jobs=1,
                         progress=False)
     assert out.complete
-    kinds = [k for k, _ in calls]
-    assert kinds == ["compile"] * 2 + ["task"] * 4
-    assert sorted(a for k, a in calls if k == "compile") == ["fake_diverge", "fake_map"]
+    assert calls[:3] == [("compile", "fake_diverge"), ("scoring", "tiny"), ("compile", "fake_map")]
+    assert [k for k, _ in calls[3:]] == ["task"] * 4
 
 
+def test_the_scoring_warm_up_maps_and_scores_the_logs_head(tiny, tmp_path, monkeypatch):
+    """compile_scoring builds an output map of the log's first scans at their true poses and
+    scores it with the tasks' scoring (so its kernels are the ones the tasks need)."""
+    import bench.task as task_mod
+    import sim
+    import worlds
+    from bench.runner import load_worlds
+    from bench.task import WorldInfo
+    seen = {}
+    real_score = task_mod._score
+
+    def score_spy(grid, truth, surfaces=None):
+        seen["cells"] = int((grid.prob > 0.5).sum())
+        return real_score(grid, truth, surfaces)
+
+    monkeypatch.setattr(task_mod, "_score", score_spy)
+    (key, w), = load_worlds([str(tiny)])[0].items()
+    log = sim.record(w, seed=0, noise="realistic")
+    info = WorldInfo(key, worlds.rasterize(w), tuple(w.bounds), surfaces=w.visible_segments)
+    assert task_mod.compile_scoring(info, log) == key
+    assert seen["cells"] > 0
 @pytest.mark.parametrize("vary", ["slam", "data"])
 def test_a_deterministic_algorithm_runs_once_per_log(tiny, tmp_path, monkeypatch, vary):
     """fake_fixed (deterministic) runs once per log and its other repeats there take that
@@ -234,7 +263,7 @@ def test_compile_jobs_go_out_costliest_first_by_the_classes_estimate(monkeypatch
     from bench.runner import RunPlan
     from slam import registry
     algos = (*registry.BUILTIN, "fake_map", "fake_raise")
-    monkeypatch.setattr(fakes.FakeRaise, "compile_cost_s", 20.0)   # a plugin's own estimate
+    monkeypatch.setattr(fakes.FakeRaise, "compile_cost_s", 30.0)   # a plugin's own estimate
     plan = RunPlan(RunSpec(worlds=("w",), algos=algos), Path("."), {}, {}, {}, {}, {},
                    {a: registry.get(a) for a in algos}, {})
     order = plan.compile_order()
