@@ -5,7 +5,8 @@ was inserted into (its local-SLAM pose in that submap, matcher weights); consecu
 tied by their local-SLAM relative pose (local_slam_pose weights); loop-closure constraints
 come from the ConstraintBuilder (new node vs finished submaps, and a newly finished submap vs
 older nodes). Every optimize_every_n_nodes nodes, and at the end, all poses are optimized;
-the local-to-global correction is then the one of the newest submap.
+the local-to-global correction is then the one of the newest submap. At the end the submaps still
+being built are searched for loop closures as finished ones (finish_trajectory).
 """
 from __future__ import annotations
 
@@ -72,6 +73,19 @@ class PoseGraph:
                 # saves the solve).
                 self._since_opt = 0
         return node
+
+    def finish_trajectory(self, unfinished: list[int]) -> None:
+        """The route ended: every submap counts as finished and the graph is optimized a last
+        time (Cartographer's FinishTrajectory). Ours: the submaps still unfinished (indices) are
+        first searched against the older nodes for loop closures, as a newly finished submap
+        is, so the route's last stretch gets closures from both sides like the rest."""
+        if self.cfg.enable_loop_closure:
+            for s in unfinished:
+                if s in self.builder.matchers or s >= len(self.submap_global):
+                    continue
+                self.builder.add_finished_submap(self.submaps[s])
+                self._search([(s, n) for n in range(len(self.node_local)) if s not in self.node_submaps[n]])
+        self.optimize()
 
     def _search(self, pairs: list[tuple[int, int]]) -> None:
         """Search loop closures for (submap, node) pairs, in order."""

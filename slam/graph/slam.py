@@ -58,8 +58,9 @@ class GraphSlam(Slam):
         return compose(self.graph.correction, r.pose)
 
     def finish(self) -> None:
-        """A last optimization of the whole graph."""
-        self.graph.optimize()
+        """Loop closures for the submaps still being built, then a last optimization of the
+        whole graph (PoseGraph.finish_trajectory)."""
+        self.graph.finish_trajectory([s.index for s in self.local.submaps.active])
 
     def trajectory(self) -> tuple[np.ndarray, np.ndarray]:
         """Optimized node poses; scans between nodes placed by the local SLAM's motion since

@@ -79,6 +79,22 @@ def test_maps_room_and_closes_loop(room_log):
     assert p > 0.9 and sens > 0.9
 
 
+def test_finish_closes_loops_of_the_submaps_still_being_built(room_log):
+    s = _run(room_log, SMALL)
+    g = s.graph
+    active = [sm.index for sm in s.local.submaps.active]
+    assert active and not any(c.submap in active for c in g.loops)
+    n_opt = g.n_optimizations
+    s.finish()
+    assert all(i in g.builder.matchers for i in active) and g.n_optimizations == n_opt + 1
+    new = [c for c in g.loops if c.submap in active]
+    # older nodes (not inserted into that submap) matched against it, as for a finished submap
+    assert new and all(c.submap not in g.node_submaps[c.node] for c in new)
+    for c in new:
+        found = relative(g.submap_global[c.submap], g.node_global[c.node])
+        assert np.hypot(*(found[:2] - c.z[:2])) < 0.05
+
+
 @pytest.mark.parametrize("opt, robust", [({}, True), ({"max_loop_residual": 0.0}, True),
                                          ({"huber_scale": 1e12, "max_loop_residual": 0.0}, False)])
 def test_wrong_loop_closure_does_not_wreck_result(room_log, opt, robust):
