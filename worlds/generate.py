@@ -6,9 +6,9 @@ thickness, obstacles as YAML mappings, start pose, optionally a route); then:
     ring's centre line with cut corners, ending where it started;
  2. the YAML text is reloaded by worlds.load (start clear of walls, waypoints reachable)
     and the route must see at least MIN_COVERAGE of the true wall cells within
-    COVERAGE_RANGE m (the output maps take hits from closer than 2 m only). A draw that
-    fails is replaced by the next one, drawn from np.random.default_rng((seed, attempt)),
-    up to MAX_DRAWS draws.
+    COVERAGE_RANGE m (every wall seen from near, where the lidar's noise is smallest). A
+    draw that fails is replaced by the next one, drawn from
+    np.random.default_rng((seed, attempt)), up to MAX_DRAWS draws.
 Round pillars are 20-gons, as ray casting (route planning, the coverage check, the
 simulated lidar) costs time in proportion to the segment count. Coordinates are rounded to
 mm, not to the 0.05 m grid: most wall faces fall anywhere in a cell, and one outer wall
@@ -41,8 +41,8 @@ MIN_SIZE = {"office": (5.0, 4.0), "warehouse": (5.5, 4.5), "hall": (4.0, 3.0), "
 MAX_AREA = 400.0
 
 RESOLUTION = 0.05
-# the shared output map (slam.mapper) inserts hits closer than 2 m only, so a route must pass
-# within that of every wall for any algorithm (the oracle too) to map it; 0.2 m to spare
+# the route passes within this of every wall, so each wall gets hits from near (the LDS-01's
+# noise grows with range: +-5 % beyond 0.5 m); the generated files depend on these values
 PLAN_RANGE = 1.8        # range (m) the planned route is made for
 COVERAGE_RANGE = 1.8    # range (m) of the coverage check
 MIN_COVERAGE = 0.97     # margin over the 0.95 the simulator requires of a route
