@@ -220,6 +220,8 @@ def test_the_scoring_warm_up_maps_and_scores_the_logs_head(tiny, tmp_path, monke
     info = WorldInfo(key, worlds.rasterize(w), tuple(w.bounds), surfaces=w.visible_segments)
     assert task_mod.compile_scoring(info, log) == key
     assert seen["cells"] > 0
+
+
 @pytest.mark.parametrize("vary", ["slam", "data"])
 def test_a_deterministic_algorithm_runs_once_per_log(tiny, tmp_path, monkeypatch, vary):
     """fake_fixed (deterministic) runs once per log and its other repeats there take that
