@@ -12,7 +12,9 @@ of each kind with generator seeds --seeds. Then, on the shipped worlds and the g
  - shift: the whole world moved by 0.01, 0.025 and 0.04 m (log re-recorded), oracle re-scored;
  - moved: the oracle's map moved diagonally by one cell, scored with no alignment;
  - drift: maps built from the true trajectory plus a smooth drift of 1, 2, 3.5 and 5 cm
-   (mean F1 over three shapes of each);
+   (mean F1 over three shapes of each), which must score lower at each step; how the 1 cm
+   map compares with the oracle's is printed beside the checks, not checked (on a wall whose
+   face lies in the middle of its cell, 1 cm moves nothing out of the cell);
  - turned: maps built from the true trajectory turned rigidly about its centroid by 1, 3 and
    5 mrad, F1 under the benchmark's alignment and under the exact inverse turn (what a perfect
    alignment would score): a map that is the truth moved rigidly must score as the truth does;
@@ -189,13 +191,10 @@ def checks(rows: list[dict]) -> list[tuple[str, bool, str]]:
         mp, ms = np.mean([r["moved_p"] for r in extra]), np.mean([r["moved_s"] for r in extra])
         out.append(("map moved one cell diagonally, no alignment", max(mp, ms) <= CHECKS["moved_mean"],
                     f"mean P {mp:.3f}, S {ms:.3f} over {len(extra)} maps (<= {CHECKS['moved_mean']})"))
-        bad = []
-        for r in extra:
-            f1 = [_f1(r["p"], r["s"])] + [r[f"drift_{a:g}"] for a in DRIFTS]
-            if not all(b < a for a, b in zip(f1, f1[1:])):
-                bad.append(r["world"])
-        out.append(("drift scores lower at each step (F1)", not bad,
-                    f"{len(extra) - len(bad)}/{len(extra)} worlds monotone" + (f"; not: {bad}" if bad else "")))
+        bad = [r["world"] for r in extra if not _falls([r[f"drift_{a:g}"] for a in DRIFTS])]
+        out.append(("drift maps score lower at each step (F1)", not bad,
+                    f"{len(extra) - len(bad)}/{len(extra)} worlds fall from 1 to 2, 3.5 and 5 cm"
+                    + (f"; not: {bad}" if bad else "")))
         loss = max(r[f"turn_exact_{a:g}"] - r[f"turn_{a:g}"] for r in extra for a in TURNS)
         out.append(("turned maps score as under the exact inverse turn", loss <= CHECKS["turned_max"],
                     f"largest F1 loss {loss:.4f} over {len(extra)} worlds x {len(TURNS)} turns "
@@ -212,6 +211,20 @@ def checks(rows: list[dict]) -> list[tuple[str, bool, str]]:
 
 def _f1(p, s):
     return 2 * p * s / (p + s) if p + s > 0 else 0.0
+
+
+def _falls(values) -> bool:
+    return all(b < a for a, b in zip(values, values[1:]))
+
+
+def first_drift_step(rows: list[dict]) -> str:
+    """The oracle's map against the 1 cm drift map (not a check: where a wall's face lies in
+    the middle of its cell, 1 cm moves none out of it, and a map of cells cannot change)."""
+    extra = [r for r in rows if r["shift"] == 0.0 and "moved_p" in r]
+    same = [f"{r['world']} {r['drift_0.01'] - _f1(r['p'], r['s']):+.4f}" for r in extra
+            if not r["drift_0.01"] < _f1(r["p"], r["s"])]
+    return (f"the 1 cm drift map scores below the oracle's on {len(extra) - len(same)}/{len(extra)} worlds"
+            + (f"; not (F1 change): {', '.join(same)}" if same else ""))
 
 
 def run(refs, shift_refs, draws, tau, jobs=2):
@@ -253,6 +266,8 @@ def print_tables(rows, tau):
     for name, passed, detail in checks(rows):
         ok &= passed
         print(f"{'PASS' if passed else 'FAIL'}: {name}: {detail}")
+    if extra:
+        print(f"Not a check: {first_drift_step(rows)}")
     return ok
 
 

@@ -43,8 +43,21 @@ def test_checks_fail_on_bad_numbers():
     assert result == {"oracle P and S on every map": False, "oracle P and S on average": False,
                       "world shift moves P and S": False,
                       "map moved one cell diagonally, no alignment": False,
-                      "drift scores lower at each step (F1)": False,
+                      "drift maps score lower at each step (F1)": False,
                       "turned maps score as under the exact inverse turn": False}
+
+
+def test_drift_check_reads_the_four_drift_maps_and_reports_the_first_step_apart():
+    # walls in the middle of their cells: the 1 cm map scores as the oracle's, then falls
+    row = {"ref": "rectangle_m", "world": "rectangle_m", "draw": 0, "shift": 0.0, "p": 0.995,
+           "s": 1.0, "moved_p": 0.01, "moved_s": 0.01,
+           **{f"drift_{a:g}": v for a, v in zip(sm.DRIFTS, (0.9990, 0.91, 0.86, 0.68))},
+           **{f"turn_{a:g}": 0.99 for a in sm.TURNS}, **{f"turn_exact_{a:g}": 0.99 for a in sm.TURNS}}
+    result = {name: ok for name, ok, _ in sm.checks([row])}
+    assert result["drift maps score lower at each step (F1)"]
+    assert "on 0/1 worlds; not (F1 change): rectangle_m +0.0015" in sm.first_drift_step([row])
+    row["drift_0.035"] = 0.92
+    assert not {name: ok for name, ok, _ in sm.checks([row])}["drift maps score lower at each step (F1)"]
 
 
 @pytest.mark.slow
