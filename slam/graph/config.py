@@ -257,4 +257,14 @@ class GraphConfig:
 
     trajectory_builder: LocalConfig = field(default_factory=LocalConfig)
     pose_graph: GlobalConfig = field(default_factory=GlobalConfig)
+    # ours, offline (slam/configs/graph_gyro_calibrated.yaml): run the log twice; the gyro's
+    # mean bias, read from the first run's optimized yaw (slam/graph/calibration.py), is taken
+    # out of the gyro for the second. Twice the run time
+    calibrate_gyro: bool = False
+    calibrated_rotation_weight: float = 1000.0   # ours: the second run's local pull to the calibrated
+                                                 # gyro's prediction, per rad (first run: 330)
     output_map: OutputMapConfig = field(default_factory=OutputMapConfig)
+
+    def __post_init__(self):
+        if not self.calibrated_rotation_weight >= 0:
+            raise ValueError(f"calibrated_rotation_weight must be >= 0, got {self.calibrated_rotation_weight}")
