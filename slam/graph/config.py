@@ -262,7 +262,8 @@ class GraphConfig:
     # out of the gyro for the second. Twice the run time
     calibrate_gyro: bool = False
     calibrated_rotation_weight: float = 1000.0   # ours: the second run's local pull to the calibrated
-                                                 # gyro's prediction, per rad (first run: 330)
+                                                 # gyro's prediction, per rad (in place of the
+                                                 # local matcher's rotation_weight, 330)
     output_map: OutputMapConfig = field(default_factory=OutputMapConfig)
 
     def __post_init__(self):
