@@ -68,7 +68,8 @@ class GraphSlam(Slam):
 
     def finish(self) -> None:
         """Loop closures for the submaps still being built, then a last optimization of the
-        whole graph (PoseGraph.finish_trajectory)."""
+        whole graph (PoseGraph.finish_trajectory); with calibrate_gyro, then the second run
+        (_second_pass)."""
         self.graph.finish_trajectory([s.index for s in self.local.submaps.active])
         if self._inputs is not None and self.config.trajectory_builder.use_imu_data:
             self._second_pass()
