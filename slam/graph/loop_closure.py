@@ -120,7 +120,8 @@ class ConstraintBuilder:
             return None
         pose, score, other = found
         prob, meta = submap.probabilities()
-        refined = ceres_match(prob, meta, points, pose, pose, self.cfg.ceres_scan_matcher)
+        refined = ceres_match(prob, meta, points, pose, pose, self.cfg.ceres_scan_matcher,
+                              _seen_weights(submap, points, pose))
         ev, vec = np.linalg.eigh(translation_information(prob, meta, points, refined))
         weak = vec[:, 0]
         slides = self.cfg.min_information_ratio > 0 and ev[0] < self.cfg.min_information_ratio * ev[1]
@@ -137,7 +138,8 @@ class ConstraintBuilder:
             # current estimate's place along it and the search's place across it.
             across = np.array([-weak[1], weak[0]])
             start = np.array([*(initial[:2] + ((pose[:2] - initial[:2]) @ across) * across), pose[2]])
-            refined = ceres_match(prob, meta, points, start, start, self.cfg.ceres_scan_matcher)
+            refined = ceres_match(prob, meta, points, start, start, self.cfg.ceres_scan_matcher,
+                                  _seen_weights(submap, points, start))
         if self.cfg.max_see_through_ratio > 0:
             ratio = see_through_ratio(submap, points, origin, refined, self.cfg.see_through_free_probability)
             if ratio > self.cfg.max_see_through_ratio:
@@ -147,6 +149,15 @@ class ConstraintBuilder:
         axis = float(np.arctan2(weak[1], weak[0]) - refined[2]) if slides else None
         self.sliding += slides
         return LoopConstraint(submap.index, node, relative(submap.local_pose, refined), score, axis)
+
+
+def _seen_weights(submap: Submap, points: np.ndarray, pose: np.ndarray) -> np.ndarray:
+    """(N,) least-squares weights of a node's points (N, 2, robot frame) placed at `pose` (3,,
+    the submap's local frame): 1 on cells the submap has observed, 0 elsewhere (ours, as the
+    local matcher weighs its points). A node matched against an older submap usually stands at
+    that submap's edge; its points beyond what the submap saw would read the never-observed
+    value and pull the node back into the submap, towards the submap's origin."""
+    return submap.known_at(transform_points(pose, points)).astype(np.float64)
 
 
 def translation_information(prob: np.ndarray, meta: np.ndarray, points: np.ndarray,

@@ -232,6 +232,58 @@ def test_a_corridor_loop_closure_pins_only_the_side_position_and_heading():
     assert abs(slide.z[0] - guess[0]) < 0.02
 
 
+# A corridor closed at x = -1 (walls y = +-0.6), mapped into a TSDF submap from x = -0.5..0.3 out
+# to 1.8 m, and a node at x = 1.4 that sees 3 m: 40 % of its points lie on cells the submap never
+# saw, whose never-observed value pulls them back into the submap.
+CLOSED_CORRIDOR = [(-1.0, 0.6, 5.0, 0.6), (-1.0, -0.6, 5.0, -0.6), (-1.0, -0.6, -1.0, 0.6)]
+
+
+def _segment_points(origin, max_range, step):
+    out = []
+    for x0, y0, x1, y1 in CLOSED_CORRIDOR:
+        n = int(np.hypot(x1 - x0, y1 - y0) / step) + 1
+        p = np.column_stack([np.linspace(x0, x1, n), np.linspace(y0, y1, n)])
+        out.append(p[np.hypot(*(p - origin).T) < max_range])
+    return np.vstack(out)
+
+
+def test_loop_closure_refinement_leaves_out_points_the_submap_never_saw(monkeypatch):
+    from slam.graph import loop_closure
+    from slam.graph.scan_matching import ceres_match
+    from slam.graph.tsdf import TsdfSubmap
+    sub = TsdfSubmap(0, np.array([-0.5, 0.0]), SubmapsConfig())
+    for x0 in np.linspace(-0.5, 0.3, 9):
+        sub.insert(np.array([x0, 0.0]), _segment_points(np.array([x0, 0.0]), 1.8, 0.01), np.zeros((0, 2)))
+    sub.finished = True
+    truth = np.array([1.4, 0.02, 0.01])
+    c, s = np.cos(truth[2]), np.sin(truth[2])
+    scan = (_segment_points(truth[:2], 3.0, 0.03) - truth[:2]) @ np.array([[c, -s], [s, c]])
+    guess = truth + np.array([0.04, -0.03, 0.01])
+    cfg = ConstraintBuilderConfig(sampling_ratio=1.0, min_score=0.3, min_information_ratio=0.0,
+                                  ambiguity_radius=0.0, max_see_through_ratio=0.0)
+    seen = loop_closure._seen_weights(sub, scan, truth)
+    assert 0.3 < 1.0 - seen.mean() < 0.5 and set(np.unique(seen)) == {0.0, 1.0}
+    # the refinement alone, from the estimate: weighted, it lands on the truth; unweighted, the
+    # unseen points drag the node 9 mm back towards the submap's origin (-x)
+    prob, meta = sub.probabilities()
+    weighted = ceres_match(prob, meta, scan, guess, guess, cfg.ceres_scan_matcher,
+                           loop_closure._seen_weights(sub, scan, guess))
+    plain = ceres_match(prob, meta, scan, guess, guess, cfg.ceres_scan_matcher)
+    assert abs(weighted[0] - truth[0]) < 0.002
+    assert plain[0] - truth[0] < -0.006
+
+    # the constraint builder refines that way: its closure lies nearer the truth along x
+    def closure():
+        builder = ConstraintBuilder(cfg)
+        builder.add_finished_submap(sub)
+        return builder.compute(sub, sub.local_pose, 0, guess, scan, np.zeros(2))
+
+    along = closure().z[0] - relative(sub.local_pose, truth)[0]
+    monkeypatch.setattr(loop_closure, "_seen_weights", lambda submap, points, pose: np.ones(len(points)))
+    along_plain = closure().z[0] - relative(sub.local_pose, truth)[0]
+    assert abs(along) < abs(along_plain) - 0.003
+
+
 def test_local_slam_learns_a_constant_gyro_bias(room_log):
     # 0.005 rad/s added to every gyro sample: the matcher's pull to the prediction passes much
     # of it into the yaw; learned from the matcher's corrections it is taken back out
