@@ -153,8 +153,8 @@ class ConstraintBuilder:
 
 def _seen_weights(submap: Submap, points: np.ndarray, pose: np.ndarray) -> np.ndarray:
     """(N,) least-squares weights of a node's points (N, 2, robot frame) placed at `pose` (3,,
-    the submap's local frame): 1 on cells the submap has observed, 0 elsewhere (ours, as the
-    local matcher weighs its points). A node matched against an older submap usually stands at
+    the submap's local frame): 1 on cells the submap has observed, 0 elsewhere (ours; the local
+    matcher leaves such points out too). A node matched against an older submap usually stands at
     that submap's edge; its points beyond what the submap saw would read the never-observed
     value and pull the node back into the submap, towards the submap's origin."""
     return submap.known_at(transform_points(pose, points)).astype(np.float64)
