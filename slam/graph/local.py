@@ -19,7 +19,7 @@ from slam.pose import compose, relative, transform_points, wrap_angle
 from slam.preprocess import PreprocessConfig, preprocess, yaw_rate_from_imu
 from slam.graph.config import LocalConfig, MotionFilterConfig
 from slam.graph.filters import adaptive_voxel_filter, voxel_filter
-from slam.graph.scan_matching import ceres_match, range_weights, real_time_correlative_match
+from slam.graph.scan_matching import ceres_match, range_weights, real_time_correlative_match, seen_weights
 from slam.graph.submaps import ActiveSubmaps
 
 __all__ = ["LocalSlam", "LocalResult", "MotionFilter"]
@@ -130,9 +130,7 @@ class LocalSlam:
 
     def match_weights(self, submap, points: np.ndarray, pose: np.ndarray) -> np.ndarray:
         """(N,) least-squares weights of points (N, 2) placed at pose (3,) in `submap`."""
-        # points in never-observed cells get no weight (ours): else the edge of the known map
-        # pulls them back
-        return range_weights(points, self.cfg.match_near_range) * submap.known_at(transform_points(pose, points))
+        return range_weights(points, self.cfg.match_near_range) * seen_weights(submap, points, pose)
 
     def _rotation_delta_cost_weight(self) -> float:
         """The correlative search's penalty per rad of yaw from the prediction.

@@ -26,7 +26,7 @@ import numpy as np
 from slam._kernels.interp import interp_value_grad
 from slam.pose import compose, relative, transform_points
 from slam.graph.config import ConstraintBuilderConfig
-from slam.graph.scan_matching import FastCorrelativeMatcher, angular_step, ceres_match
+from slam.graph.scan_matching import FastCorrelativeMatcher, angular_step, ceres_match, seen_weights
 from slam.graph.submaps import Submap
 
 __all__ = ["FixedRatioSampler", "LoopConstraint", "ConstraintBuilder", "translation_information",
@@ -121,7 +121,7 @@ class ConstraintBuilder:
         pose, score, other = found
         prob, meta = submap.probabilities()
         refined = ceres_match(prob, meta, points, pose, pose, self.cfg.ceres_scan_matcher,
-                              _seen_weights(submap, points, pose))
+                              seen_weights(submap, points, pose))
         ev, vec = np.linalg.eigh(translation_information(prob, meta, points, refined))
         weak = vec[:, 0]
         slides = self.cfg.min_information_ratio > 0 and ev[0] < self.cfg.min_information_ratio * ev[1]
@@ -139,7 +139,7 @@ class ConstraintBuilder:
             across = np.array([-weak[1], weak[0]])
             start = np.array([*(initial[:2] + ((pose[:2] - initial[:2]) @ across) * across), pose[2]])
             refined = ceres_match(prob, meta, points, start, start, self.cfg.ceres_scan_matcher,
-                                  _seen_weights(submap, points, start))
+                                  seen_weights(submap, points, start))
         if self.cfg.max_see_through_ratio > 0:
             ratio = see_through_ratio(submap, points, origin, refined, self.cfg.see_through_free_probability)
             if ratio > self.cfg.max_see_through_ratio:
@@ -149,15 +149,6 @@ class ConstraintBuilder:
         axis = float(np.arctan2(weak[1], weak[0]) - refined[2]) if slides else None
         self.sliding += slides
         return LoopConstraint(submap.index, node, relative(submap.local_pose, refined), score, axis)
-
-
-def _seen_weights(submap: Submap, points: np.ndarray, pose: np.ndarray) -> np.ndarray:
-    """(N,) least-squares weights of a node's points (N, 2, robot frame) placed at `pose` (3,,
-    the submap's local frame): 1 on cells the submap has observed, 0 elsewhere (ours; the local
-    matcher leaves such points out too). A node matched against an older submap usually stands at
-    that submap's edge; its points beyond what the submap saw would read the never-observed
-    value and pull the node back into the submap, towards the submap's origin."""
-    return submap.known_at(transform_points(pose, points)).astype(np.float64)
 
 
 def translation_information(prob: np.ndarray, meta: np.ndarray, points: np.ndarray,

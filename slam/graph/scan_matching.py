@@ -21,6 +21,7 @@ from slam.graph._correlative_kernel import (bnb_margin, bnb_search, discretize_r
                                            score_candidates)
 from slam.graph._match_kernel import match_lm
 from slam.graph.config import CeresScanMatcherConfig, FastCorrelativeConfig, RealTimeCorrelativeConfig
+from slam.pose import transform_points
 
 __all__ = ["range_weights", "angular_step", "discretize", "CorrelativeMatch", "real_time_correlative_match",
            "ceres_match", "FastCorrelativeMatcher"]
@@ -75,6 +76,14 @@ def real_time_correlative_match(prob: np.ndarray, meta: np.ndarray, points: np.n
     # The cell shift moves every point by whole cells: add it to the pose translation.
     return CorrelativeMatch(np.array([pose[0] + d[b], pose[1] + d[a], pose[2] + offsets[k]]),
                             float(offsets[k_free]), float(step))
+
+
+def seen_weights(submap, points: np.ndarray, pose: np.ndarray) -> np.ndarray:
+    """(N,) least-squares weights of points (N, 2, robot frame) placed at `pose` (3,, the
+    submap's local frame): 1 on cells `submap` has observed, 0 elsewhere (ours). A point on a
+    never-observed cell reads the never-observed value, and the edge of the known map would
+    pull it back: into the submap, for a node at the edge of an older one it is matched to."""
+    return submap.known_at(transform_points(pose, points)).astype(np.float64)
 
 
 def range_weights(points: np.ndarray, near_range: float) -> np.ndarray:

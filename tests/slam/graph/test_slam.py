@@ -261,13 +261,13 @@ def test_loop_closure_refinement_leaves_out_points_the_submap_never_saw(monkeypa
     guess = truth + np.array([0.04, -0.03, 0.01])
     cfg = ConstraintBuilderConfig(sampling_ratio=1.0, min_score=0.3, min_information_ratio=0.0,
                                   ambiguity_radius=0.0, max_see_through_ratio=0.0)
-    seen = loop_closure._seen_weights(sub, scan, truth)
+    seen = loop_closure.seen_weights(sub, scan, truth)
     assert 0.3 < 1.0 - seen.mean() < 0.5 and set(np.unique(seen)) == {0.0, 1.0}
     # the refinement alone, from the estimate: weighted, it lands on the truth; unweighted, the
     # unseen points drag the node 9 mm back towards the submap's origin (-x)
     prob, meta = sub.probabilities()
     weighted = ceres_match(prob, meta, scan, guess, guess, cfg.ceres_scan_matcher,
-                           loop_closure._seen_weights(sub, scan, guess))
+                           loop_closure.seen_weights(sub, scan, guess))
     plain = ceres_match(prob, meta, scan, guess, guess, cfg.ceres_scan_matcher)
     assert abs(weighted[0] - truth[0]) < 0.002
     assert plain[0] - truth[0] < -0.006
@@ -279,7 +279,7 @@ def test_loop_closure_refinement_leaves_out_points_the_submap_never_saw(monkeypa
         return builder.compute(sub, sub.local_pose, 0, guess, scan, np.zeros(2))
 
     along = closure().z[0] - relative(sub.local_pose, truth)[0]
-    monkeypatch.setattr(loop_closure, "_seen_weights", lambda submap, points, pose: np.ones(len(points)))
+    monkeypatch.setattr(loop_closure, "seen_weights", lambda submap, points, pose: np.ones(len(points)))
     along_plain = closure().z[0] - relative(sub.local_pose, truth)[0]
     assert abs(along) < abs(along_plain) - 0.003
 
