@@ -8,8 +8,11 @@ from slam import registry
 from slam.registry import load_config
 from slam.replay import _iter_inputs
 from slam.graph import GraphSlam
+from slam.graph import loop_closure
 from slam.graph.loop_closure import ConstraintBuilder, FixedRatioSampler, LoopConstraint, see_through_ratio
+from slam.graph.scan_matching import ceres_match
 from slam.graph.submaps import ActiveSubmaps, Submap
+from slam.graph.tsdf import TsdfSubmap
 from slam.graph.calibration import gyro_bias_from_yaw
 from slam.graph.config import ConstraintBuilderConfig, SubmapsConfig
 from slam.pose import interpolate_poses, relative, wrap_angle
@@ -248,9 +251,6 @@ def _segment_points(origin, max_range, step):
 
 
 def test_loop_closure_refinement_leaves_out_points_the_submap_never_saw(monkeypatch):
-    from slam.graph import loop_closure
-    from slam.graph.scan_matching import ceres_match
-    from slam.graph.tsdf import TsdfSubmap
     sub = TsdfSubmap(0, np.array([-0.5, 0.0]), SubmapsConfig())
     for x0 in np.linspace(-0.5, 0.3, 9):
         sub.insert(np.array([x0, 0.0]), _segment_points(np.array([x0, 0.0]), 1.8, 0.01), np.zeros((0, 2)))
