@@ -69,12 +69,13 @@ class GrowingGrid:
         # integer cell index of the lower-left corner on the global lattice (multiples of res)
         self._i0 = int(math.floor(center[0] / self.resolution)) - n // 2
         self._j0 = int(math.floor(center[1] / self.resolution)) - n // 2
-        for name, fill, dtype in self._layers():
-            setattr(self, name, np.full((n, n), fill, dtype=dtype))
+        for name, fill, dtype, *depth in self._layers():
+            setattr(self, name, np.full((*depth, n, n), fill, dtype=dtype))
         self.version = 0  # bumped by every change, for callers caching derived maps
 
     def _layers(self) -> tuple:
-        """((attribute name, fill value of new cells, dtype), ...); the first sets `shape`."""
+        """((attribute name, fill value of new cells, dtype[, depth]), ...); a layer with a
+        depth is a stack (depth, rows, cols) of grids; the first layer (no depth) sets `shape`."""
         raise NotImplementedError
 
     # --- geometry ---------------------------------------------------------------------
@@ -125,9 +126,9 @@ class GrowingGrid:
         check_grid_cells(rows + add_b + add_t, cols + add_l + add_r, "map",
                          f"a point at ({xy_max[0]:.4g}, {xy_max[1]:.4g}) m or ({xy_min[0]:.4g}, "
                          f"{xy_min[1]:.4g}) m (a pose far off)")
-        for name, fill, dtype in self._layers():
-            new = np.full((rows + add_b + add_t, cols + add_l + add_r), fill, dtype=dtype)
-            new[add_b:add_b + rows, add_l:add_l + cols] = getattr(self, name)
+        for name, fill, dtype, *depth in self._layers():
+            new = np.full((*depth, rows + add_b + add_t, cols + add_l + add_r), fill, dtype=dtype)
+            new[..., add_b:add_b + rows, add_l:add_l + cols] = getattr(self, name)
             setattr(self, name, new)
         self._i0 -= add_l
         self._j0 -= add_b

@@ -12,29 +12,40 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-__all__ = ["interp_value_grad", "interp_point", "interp_value_grad_ref", "add_normal_row",
-           "symmetrize_upper"]
+__all__ = ["interp_value_grad", "interp_point", "bilinear_cell", "bilinear", "interp_value_grad_ref",
+           "add_normal_row", "symmetrize_upper"]
 
 
 @njit(cache=True, nogil=True)
-def interp_point(prob, ox, oy, res, rows, cols, x, y):
-    """(M, dM/dx, dM/dy) at world point x, y (m); gradient per metre."""
+def bilinear_cell(ox, oy, res, rows, cols, x, y):
+    """(i, j, fu, fv): the lower-left of the four cell centres around world point x, y (m),
+    column i and row j, and the point's fractions towards the next ones; i = -1 when the four
+    are not all inside the grid."""
     u = (x - ox) / res - 0.5  # continuous index with cell centres at integers
     v = (y - oy) / res - 0.5
     i = int(np.floor(u))
     j = int(np.floor(v))
     if i < 0 or j < 0 or i + 1 >= cols or j + 1 >= rows:
-        return 0.0, 0.0, 0.0
-    fu = u - i
-    fv = v - j
-    p00 = prob[j, i]
-    p01 = prob[j, i + 1]
-    p10 = prob[j + 1, i]
-    p11 = prob[j + 1, i + 1]
+        return -1, -1, 0.0, 0.0
+    return i, j, u - i, v - j
+
+
+@njit(cache=True, nogil=True)
+def bilinear(p00, p01, p10, p11, fu, fv, res):
+    """(M, dM/dx, dM/dy) between four cell values (p01: the next column, p10: the next row)."""
     m = (1.0 - fv) * ((1.0 - fu) * p00 + fu * p01) + fv * ((1.0 - fu) * p10 + fu * p11)
     du = (1.0 - fv) * (p01 - p00) + fv * (p11 - p10)
     dv = (1.0 - fu) * (p10 - p00) + fu * (p11 - p01)
     return m, du / res, dv / res
+
+
+@njit(cache=True, nogil=True)
+def interp_point(prob, ox, oy, res, rows, cols, x, y):
+    """(M, dM/dx, dM/dy) at world point x, y (m); gradient per metre."""
+    i, j, fu, fv = bilinear_cell(ox, oy, res, rows, cols, x, y)
+    if i < 0:
+        return 0.0, 0.0, 0.0
+    return bilinear(prob[j, i], prob[j, i + 1], prob[j + 1, i], prob[j + 1, i + 1], fu, fv, res)
 
 
 @njit(cache=True, nogil=True)

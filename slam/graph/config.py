@@ -91,9 +91,16 @@ class TsdfInserterConfig:
     # signed distance of the cell from the hit
     update_weight_angle_scan_normal_to_ray_kernel_bandwidth: float = 0.5   # rad; 0 = off
     update_weight_distance_cell_to_hit_kernel_bandwidth: float = 0.5       # m; 0 = off
+    # ours: a directional TSDF (Splietker and Behnke 2019) beside the one field: this many more
+    # fields, one per normal direction, and the least squares reads each point's from its normal,
+    # so the two faces of a thin wall do not average into each other (0 = the one field,
+    # Cartographer's)
+    normal_directions: int = 4
 
     def __post_init__(self):
         _positive(self, "truncation_distance", "maximum_weight", "num_normal_samples", "sample_radius")
+        if self.normal_directions != 0 and self.normal_directions < 3:
+            raise ValueError(f"normal_directions must be 0 or >= 3, got {self.normal_directions}")
         for n in ("update_weight_angle_scan_normal_to_ray_kernel_bandwidth",
                   "update_weight_distance_cell_to_hit_kernel_bandwidth"):
             if getattr(self, n) < 0:

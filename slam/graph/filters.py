@@ -11,18 +11,24 @@ from slam.graph._voxel_kernel import MINSTD_A, MINSTD_M, adaptive_voxel_filter_k
 __all__ = ["voxel_filter", "adaptive_voxel_filter", "voxel_filter_ref", "adaptive_voxel_filter_ref"]
 
 
+def _rows(points: np.ndarray) -> np.ndarray:
+    """Points as contiguous float64 rows (N, 2 or more: x, y, then what travels with them)."""
+    a = np.ascontiguousarray(points, dtype=np.float64)
+    return a.reshape(-1, 2) if a.ndim == 1 else a
+
+
 def voxel_filter(points: np.ndarray, size: float, randomized: bool = False) -> np.ndarray:
     """(N, 2) m -> one point of each occupied voxel of `size` m, in input order: the first, or
-    (randomized) one drawn uniformly and reproducibly (see voxel_filter_ref)."""
-    return voxel_filter_kernel(np.ascontiguousarray(points, dtype=np.float64).reshape(-1, 2), float(size),
-                               bool(randomized))
+    (randomized) one drawn uniformly and reproducibly (see voxel_filter_ref). Columns after x
+    and y (e.g. a normal) are kept with their points."""
+    return voxel_filter_kernel(_rows(points), float(size), bool(randomized))
 
 
 def adaptive_voxel_filter(points: np.ndarray, max_length: float, min_num_points: int,
                           max_range: float, randomized: bool = False) -> np.ndarray:
-    """Cartographer's AdaptiveVoxelFilter (see adaptive_voxel_filter_ref)."""
-    return adaptive_voxel_filter_kernel(np.ascontiguousarray(points, dtype=np.float64).reshape(-1, 2),
-                                        float(max_length), int(min_num_points), float(max_range),
+    """Cartographer's AdaptiveVoxelFilter (see adaptive_voxel_filter_ref); columns after x and y
+    are kept with their points."""
+    return adaptive_voxel_filter_kernel(_rows(points), float(max_length), int(min_num_points), float(max_range),
                                         bool(randomized))
 
 

@@ -19,8 +19,9 @@ from slam.pose import compose, relative, transform_points, wrap_angle
 from slam.preprocess import PreprocessConfig, preprocess, yaw_rate_from_imu
 from slam.graph.config import LocalConfig, MotionFilterConfig
 from slam.graph.filters import adaptive_voxel_filter, voxel_filter
-from slam.graph.scan_matching import ceres_match, range_weights, real_time_correlative_match, seen_weights
+from slam.graph.scan_matching import range_weights, real_time_correlative_match, seen_weights, submap_match
 from slam.graph.submaps import ActiveSubmaps
+from slam.graph.tsdf import scan_normals
 
 __all__ = ["LocalSlam", "LocalResult", "MotionFilter"]
 
@@ -36,13 +37,15 @@ class LocalResult:
     """What the local SLAM made of one scan.
 
     pose: (3,) matched pose, local frame. If the scan became a node: hits, misses ((N, 2),
-    (M, 2) robot frame m, as inserted), origin (2,) lidar position in the robot frame,
+    (M, 2) robot frame m, as inserted), the hits' normal angles (N,) rad (robot frame; None
+    without directional TSDF submaps), origin (2,) lidar position in the robot frame,
     inserted_into / created / finished: submap indices.
     """
 
     pose: np.ndarray
     is_node: bool
     hits: np.ndarray | None = None
+    normals: np.ndarray | None = None
     misses: np.ndarray | None = None
     origin: np.ndarray | None = None
     inserted_into: tuple = ()
@@ -118,15 +121,26 @@ class LocalSlam:
         twist = delta / dt if dt > 0 else np.zeros(3)
         return pred, twist
 
+    def directional(self) -> bool:
+        """True when the submaps are TSDFs with directional layers: points carry normals."""
+        sub = self.cfg.submaps
+        return sub.grid_type == "tsdf" and sub.tsdf.normal_directions > 0
+
     def filter_scan(self, scan: Scan, twist: np.ndarray):
-        """(preprocessed scan, voxel-filtered hits as inserted, adaptively filtered points as
-        matched) of one scan taken while moving at twist (3,)."""
+        """(preprocessed scan, voxel-filtered hits as inserted, their normals (robot frame) or
+        None, adaptively filtered points as matched, theirs) of one scan taken while moving at
+        twist (3,)."""
         sp = preprocess(scan, self.pre, twist)
         randomized = self.cfg.randomized_voxel_filter
         hits = voxel_filter(sp.points, self.cfg.voxel_filter_size, randomized)
         av = self.cfg.adaptive_voxel_filter
-        match_pts = adaptive_voxel_filter(hits, av.max_length, av.min_num_points, av.max_range, randomized)
-        return sp, hits, match_pts
+        if not self.directional():
+            match_pts = adaptive_voxel_filter(hits, av.max_length, av.min_num_points, av.max_range, randomized)
+            return sp, hits, None, match_pts, None
+        normals = scan_normals(sp.origin, hits, self.cfg.submaps.tsdf)
+        match = adaptive_voxel_filter(np.column_stack([hits, normals]), av.max_length, av.min_num_points,
+                                      av.max_range, randomized)
+        return sp, hits, normals, np.ascontiguousarray(match[:, :2]), match[:, 2].copy()
 
     def match_weights(self, submap, points: np.ndarray, pose: np.ndarray) -> np.ndarray:
         """(N,) least-squares weights of points (N, 2) placed at pose (3,) in `submap`."""
@@ -163,14 +177,13 @@ class LocalSlam:
     def add_scan(self, scan: Scan, odom: OdomDelta | None, imu: ImuWindow | None) -> LocalResult:
         """Match one scan and insert it if it passes the motion filter."""
         pred, twist = self._predict(scan, odom, imu)
-        sp, hits, match_pts = self.filter_scan(scan, twist)
+        sp, hits, normals, match_pts, match_normals = self.filter_scan(scan, twist)
         submap = self.submaps.matching_submap()
         pose = pred
         if submap is not None and len(match_pts) >= 3:
-            prob, meta = submap.probabilities()
             start = pred
             if self.cfg.use_online_correlative_scan_matching:
-                search, _ = submap.search_grid()
+                search, meta = submap.search_grid()
                 found = real_time_correlative_match(search, meta, match_pts, pred,
                                                     self.cfg.real_time_correlative_scan_matcher,
                                                     self._rotation_delta_cost_weight())
@@ -178,7 +191,7 @@ class LocalSlam:
                 self.innovation_floor = found.angular_step
                 start = found.pose
             w = self.match_weights(submap, match_pts, start)
-            pose = ceres_match(prob, meta, match_pts, start, pred, self.cfg.ceres_scan_matcher, w)
+            pose = submap_match(submap, match_pts, match_normals, start, pred, self.cfg.ceres_scan_matcher, w)
             if self._uses_gyro(imu) and abs(twist[2]) < self.cfg.gyro_bias_max_rate:
                 self._learn_gyro_bias(pose[2] - pred[2])
         pose = np.array([pose[0], pose[1], wrap_angle(pose[2])])
@@ -189,5 +202,5 @@ class LocalSlam:
         origin_w = transform_points(pose, sp.origin[None, :])[0]
         inserted, created, finished = self.submaps.insert(
             origin_w, transform_points(pose, hits), transform_points(pose, sp.misses))
-        return LocalResult(pose, True, hits, sp.misses, sp.origin, tuple(inserted), tuple(created),
-                           tuple(finished))
+        return LocalResult(pose, True, hits=hits, misses=sp.misses, normals=normals, origin=sp.origin,
+                           inserted_into=tuple(inserted), created=tuple(created), finished=tuple(finished))

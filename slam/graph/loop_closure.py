@@ -26,7 +26,7 @@ import numpy as np
 from slam._kernels.interp import interp_value_grad
 from slam.pose import compose, relative, transform_points
 from slam.graph.config import ConstraintBuilderConfig
-from slam.graph.scan_matching import FastCorrelativeMatcher, angular_step, ceres_match, seen_weights
+from slam.graph.scan_matching import FastCorrelativeMatcher, angular_step, seen_weights, submap_match
 from slam.graph.submaps import Submap
 
 __all__ = ["FixedRatioSampler", "LoopConstraint", "ConstraintBuilder", "translation_information",
@@ -89,12 +89,12 @@ class ConstraintBuilder:
         self.samplers[submap.index] = FixedRatioSampler(self.cfg.sampling_ratio)
 
     def compute(self, submap: Submap, submap_global: np.ndarray, node: int, node_global: np.ndarray,
-                points: np.ndarray, origin: np.ndarray) -> LoopConstraint | None:
+                points: np.ndarray, origin: np.ndarray, normals: np.ndarray | None = None) -> LoopConstraint | None:
         """Try one (finished submap, node) pair; points (N, 2) robot frame, filtered, seen from
-        the lidar at origin (2,) robot frame."""
+        the lidar at origin (2,) robot frame, with their normal angles (N,) rad or None."""
         if not self.sample([submap.index], submap_global[None, :], node_global[None, :])[0]:
             return None
-        return self.match(submap, submap_global, node, node_global, points, origin)
+        return self.match(submap, submap_global, node, node_global, points, origin, normals)
 
     def sample(self, submaps: list, submap_global: np.ndarray, node_global: np.ndarray) -> list:
         """Which of the (submap, node) pairs, in order, to match: (M,) bool of the submap
@@ -105,7 +105,7 @@ class ConstraintBuilder:
         return [not f and self.samplers[s].pulse() for s, f in zip(submaps, far)]
 
     def match(self, submap: Submap, submap_global: np.ndarray, node: int, node_global: np.ndarray,
-              points: np.ndarray, origin: np.ndarray) -> LoopConstraint | None:
+              points: np.ndarray, origin: np.ndarray, normals: np.ndarray | None = None) -> LoopConstraint | None:
         """compute() of a pair that sample() chose."""
         self.attempts += 1
         # Initial guess: the node in the submap's local grid frame via the global poses.
@@ -120,8 +120,8 @@ class ConstraintBuilder:
             return None
         pose, score, other = found
         prob, meta = submap.probabilities()
-        refined = ceres_match(prob, meta, points, pose, pose, self.cfg.ceres_scan_matcher,
-                              seen_weights(submap, points, pose))
+        refined = submap_match(submap, points, normals, pose, pose, self.cfg.ceres_scan_matcher,
+                               seen_weights(submap, points, pose))
         ev, vec = np.linalg.eigh(translation_information(prob, meta, points, refined))
         weak = vec[:, 0]
         slides = self.cfg.min_information_ratio > 0 and ev[0] < self.cfg.min_information_ratio * ev[1]
@@ -138,8 +138,8 @@ class ConstraintBuilder:
             # current estimate's place along it and the search's place across it.
             across = np.array([-weak[1], weak[0]])
             start = np.array([*(initial[:2] + ((pose[:2] - initial[:2]) @ across) * across), pose[2]])
-            refined = ceres_match(prob, meta, points, start, start, self.cfg.ceres_scan_matcher,
-                                  seen_weights(submap, points, start))
+            refined = submap_match(submap, points, normals, start, start, self.cfg.ceres_scan_matcher,
+                                   seen_weights(submap, points, start))
         if self.cfg.max_see_through_ratio > 0:
             ratio = see_through_ratio(submap, points, origin, refined, self.cfg.see_through_free_probability)
             if ratio > self.cfg.max_see_through_ratio:

@@ -34,6 +34,7 @@ class PoseGraph:
         self.node_global: list[np.ndarray] = []
         self.node_points: list[np.ndarray] = []     # loop-closure filtered, robot frame
         self.node_origins: list[np.ndarray] = []    # lidar position, robot frame
+        self.node_normals: list[np.ndarray | None] = []    # node_points' normal angles, robot frame
         self.node_submaps: list[tuple] = []
         self.loops: list[LoopConstraint] = []
         self.builder = ConstraintBuilder(cfg.constraint_builder)
@@ -44,9 +45,11 @@ class PoseGraph:
         self._loops_at_opt = 0
 
     def add_node(self, local_pose: np.ndarray, hits: np.ndarray, inserted_into: tuple,
-                 created: tuple, finished: tuple, origin: np.ndarray | None = None) -> int:
+                 created: tuple, finished: tuple, origin: np.ndarray | None = None,
+                 normals: np.ndarray | None = None) -> int:
         """Add a node (local pose (3,), hits (N, 2) robot frame seen from the lidar at origin (2,)
-        robot frame, default the robot's centre); search loops; maybe optimize."""
+        robot frame, default the robot's centre, with their normal angles (N,) rad for the
+        directional TSDF, or None); search loops; maybe optimize."""
         for s in created:
             while len(self.submap_global) <= s:
                 self.submap_global.append(compose(self.correction, self.submaps[len(self.submap_global)].local_pose))
@@ -54,8 +57,10 @@ class PoseGraph:
         self.node_local.append(np.asarray(local_pose, float).copy())
         self.node_global.append(compose(self.correction, local_pose))
         av = self.cfg.constraint_builder.loop_closure_adaptive_voxel_filter
-        self.node_points.append(adaptive_voxel_filter(hits, av.max_length, av.min_num_points, av.max_range,
-                                                     self.randomized_voxel_filter))
+        rows = hits if normals is None else np.column_stack([hits, normals])
+        kept = adaptive_voxel_filter(rows, av.max_length, av.min_num_points, av.max_range, self.randomized_voxel_filter)
+        self.node_points.append(np.ascontiguousarray(kept[:, :2]))
+        self.node_normals.append(None if normals is None else kept[:, 2].copy())
         self.node_origins.append(np.zeros(2) if origin is None else np.asarray(origin, float)[:2].copy())
         self.node_submaps.append(tuple(inserted_into))
         if self.cfg.enable_loop_closure:
@@ -97,7 +102,7 @@ class PoseGraph:
         for (s, n), chosen in zip(pairs, self.builder.sample(subs, sg, ng)):
             if chosen:
                 c = self.builder.match(self.submaps[s], self.submap_global[s], n, self.node_global[n],
-                                       self.node_points[n], self.node_origins[n])
+                                       self.node_points[n], self.node_origins[n], self.node_normals[n])
                 if c is not None:
                     self.loops.append(c)
 

@@ -19,12 +19,13 @@ import numpy as np
 
 from slam.graph._correlative_kernel import (bnb_margin, bnb_search, discretize_rotations, max_grids,
                                            score_candidates)
-from slam.graph._match_kernel import match_lm
+from slam.graph._match_kernel import match_lm, match_lm_directional
+from slam.graph._tsdf_kernel import direction_mixes
 from slam.graph.config import CeresScanMatcherConfig, FastCorrelativeConfig, RealTimeCorrelativeConfig
 from slam.pose import transform_points
 
 __all__ = ["range_weights", "angular_step", "discretize", "CorrelativeMatch", "real_time_correlative_match",
-           "ceres_match", "FastCorrelativeMatcher"]
+           "ceres_match", "submap_match", "FastCorrelativeMatcher"]
 
 
 def angular_step(points: np.ndarray, resolution: float) -> float:
@@ -104,6 +105,26 @@ def ceres_match(prob: np.ndarray, meta: np.ndarray, points: np.ndarray, start: n
     pose, _ = match_lm(prob, meta, np.ascontiguousarray(points, dtype=np.float64), w,
                        np.asarray(start, np.float64), target, cfg.occupied_space_weight,
                        cfg.translation_weight, cfg.rotation_weight, cfg.max_num_iterations)
+    return pose
+
+
+def submap_match(submap, points: np.ndarray, normals: np.ndarray | None, start: np.ndarray, prior: np.ndarray,
+                 cfg: CeresScanMatcherConfig, weights: np.ndarray | None = None) -> np.ndarray:
+    """ceres_match of points (N, 2, robot frame) against `submap`; on the directional layers of
+    a TSDF submap that has them (slam.graph.tsdf) when the points' normals (N,) rad, robot frame,
+    are given: each point reads the layers of its normal turned by start's yaw."""
+    layers = submap.directional() if normals is not None and hasattr(submap, "directional") else None
+    if layers is None:
+        prob, meta = submap.probabilities()
+        return ceres_match(prob, meta, points, start, prior, cfg, weights)
+    dir_tsd, dir_weight, truncation, meta = layers
+    mix = direction_mixes(np.asarray(normals, np.float64) + float(start[2]), dir_tsd.shape[0])
+    target = np.array([prior[0], prior[1], start[2]])
+    w = np.ones(len(points)) if weights is None else np.asarray(weights, np.float64)
+    pose, _ = match_lm_directional(dir_tsd, dir_weight, float(truncation), mix, meta,
+                                   np.ascontiguousarray(points, dtype=np.float64), w,
+                                   np.asarray(start, np.float64), target, cfg.occupied_space_weight,
+                                   cfg.translation_weight, cfg.rotation_weight, cfg.max_num_iterations)
     return pose
 
 

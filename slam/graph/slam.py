@@ -58,7 +58,7 @@ class GraphSlam(Slam):
         3. the pose is the local pose under the local-to-global correction."""
         r = self.local.add_scan(scan, odom, imu)
         if r.is_node:
-            self.graph.add_node(r.pose, r.hits, r.inserted_into, r.created, r.finished, r.origin)
+            self.graph.add_node(r.pose, r.hits, r.inserted_into, r.created, r.finished, r.origin, r.normals)
         self.scans.append(scan)
         if self._inputs is not None:
             self._inputs.append((odom, imu))

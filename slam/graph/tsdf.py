@@ -23,15 +23,18 @@ import numpy as np
 from slam.graph._tsdf_kernel import cells_under, estimate_normals, tsdf_insert
 from slam.occupancy import GrowingGrid
 
-__all__ = ["TsdfGrid", "TsdfSubmap", "tsdf_scan"]
+__all__ = ["TsdfGrid", "TsdfSubmap", "tsdf_scan", "scan_normals"]
 
 
 class TsdfGrid(GrowingGrid):
     """A growing TSDF: layers tsd (m), weight, the id of the scan that last updated a cell, and
-    match = 1 - tsd / truncation (the least squares' grid, kept up to date by the insertion)."""
+    match = 1 - tsd / truncation (the least squares' grid, kept up to date by the insertion);
+    with directions K > 0 also the directional layers dir_tsd, dir_weight, dir_stamp
+    (K, rows, cols), one field per normal direction 2 pi k / K."""
 
-    def __init__(self, resolution: float, center, truncation: float, **kw):
+    def __init__(self, resolution: float, center, truncation: float, directions: int = 0, **kw):
         self.truncation = float(truncation)
+        self.directions = int(directions)
         self.scans = 0
         super().__init__(resolution, center, **kw)
         self._meta = (None, None)
@@ -46,8 +49,10 @@ class TsdfGrid(GrowingGrid):
         return self._meta[1]
 
     def _layers(self) -> tuple:
+        k = self.directions
         return (("tsd", self.truncation, np.float64), ("weight", 0.0, np.float64), ("stamp", 0, np.int64),
-                ("match", 0.0, np.float64))
+                ("match", 0.0, np.float64), ("dir_tsd", self.truncation, np.float64, k),
+                ("dir_weight", 0.0, np.float64, k), ("dir_stamp", 0, np.int64, k))
 
     def insert(self, origin_xy: np.ndarray, hits_xy: np.ndarray, opts) -> int:
         """Insert the hits (N, 2) of one scan taken from origin (2,), world frame m; opts: a
@@ -64,7 +69,8 @@ class TsdfGrid(GrowingGrid):
         n = tsdf_insert(self.tsd, self.weight, self.stamp, self.match, self.scans, self.meta, origin, hits,
                         normals, self.truncation, float(opts.maximum_weight),
                         float(opts.update_weight_angle_scan_normal_to_ray_kernel_bandwidth),
-                        float(opts.update_weight_distance_cell_to_hit_kernel_bandwidth))
+                        float(opts.update_weight_distance_cell_to_hit_kernel_bandwidth), self.dir_tsd,
+                        self.dir_weight, self.dir_stamp)
         self.version += 1
         return int(n)
 
@@ -83,6 +89,19 @@ def tsdf_scan(origin_xy: np.ndarray, hits_xy: np.ndarray, opts) -> tuple[np.ndar
     return origin, hits, normals
 
 
+def scan_normals(origin_xy: np.ndarray, hits_xy: np.ndarray, opts) -> np.ndarray:
+    """(N,) normal angles (rad, the hits' frame) of the hits (N, 2) seen from origin (2,), in
+    their order, estimated as the TSDF insertion estimates them (in bearing order); opts: a
+    TsdfInserterConfig."""
+    origin = np.asarray(origin_xy, np.float64)[:2]
+    hits = np.asarray(hits_xy, np.float64).reshape(-1, 2)
+    order = np.argsort(np.arctan2(hits[:, 1] - origin[1], hits[:, 0] - origin[0]), kind="mergesort")
+    out = np.empty(len(hits))
+    out[order] = estimate_normals(np.ascontiguousarray(origin), np.ascontiguousarray(hits[order]),
+                                  int(opts.num_normal_samples), float(opts.sample_radius))
+    return out
+
+
 class TsdfSubmap:
     """One TSDF submap in the local frame, with the interface of slam.graph.submaps.Submap."""
 
@@ -91,6 +110,7 @@ class TsdfSubmap:
         self.local_pose = np.array([origin_xy[0], origin_xy[1], 0.0])
         self.cfg = cfg
         self.grid = TsdfGrid(cfg.resolution, center=tuple(origin_xy[:2]), truncation=cfg.tsdf.truncation_distance,
+                             directions=cfg.tsdf.normal_directions,
                              block=32, size=8.0, margin=0.3)
         self.num_range_data = 0
         self.finished = False
@@ -122,6 +142,12 @@ class TsdfSubmap:
     def probabilities(self) -> tuple[np.ndarray, np.ndarray]:
         """((rows, cols) 1 - tsd / truncation, never observed 0; (5,) grid meta)."""
         return self.grid.match, self.grid.meta
+
+    def directional(self) -> tuple | None:
+        """(dir_tsd, dir_weight (K, rows, cols), truncation, (5,) grid meta) of the directional
+        layers, or None without them."""
+        g = self.grid
+        return (g.dir_tsd, g.dir_weight, g.truncation, g.meta) if g.directions > 0 else None
 
     def search_grid(self) -> tuple[np.ndarray, np.ndarray]:
         """((rows, cols) 1 - |tsd| / truncation in [0, 1], never observed 0; (5,) grid meta)."""
