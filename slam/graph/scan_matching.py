@@ -113,7 +113,7 @@ def submap_match(submap, points: np.ndarray, normals: np.ndarray | None, start: 
     """ceres_match of points (N, 2, robot frame) against `submap`; on the directional layers of
     a TSDF submap that has them (slam.graph.tsdf) when the points' normals (N,) rad, robot frame,
     are given: each point reads the layers of its normal turned by start's yaw."""
-    layers = submap.directional() if normals is not None and hasattr(submap, "directional") else None
+    layers = submap.directional() if normals is not None else None
     if layers is None:
         prob, meta = submap.probabilities()
         return ceres_match(prob, meta, points, start, prior, cfg, weights)

@@ -88,6 +88,10 @@ class Submap:
             self._cache = (self.grid.version, prob)
         return prob, self.grid.meta
 
+    def directional(self) -> None:
+        """No directional layers (those are TSDF submaps')."""
+        return None
+
     def search_grid(self) -> tuple[np.ndarray, np.ndarray]:
         """The grid the correlative searches score: the probabilities."""
         return self.probabilities()
