@@ -6,12 +6,12 @@ import pytest
 
 KERNELS = {
     "slam._kernels.insert": ["insert_rays_inplace"],
-    "slam._kernels.gauss_newton": ["gn_iterate", "gn_normal_equations"],
+    "slam._kernels.gauss_newton": ["gn_iterate", "gn_normal_equations", "solve3"],
     "slam.pf._match_kernel": ["hill_climb", "proposal_moments"],
     "slam.pf._map_kernel": ["insert_scans", "tiles_bound", "patch_box", "read_patch"],
     "slam.pf._refine_kernel": ["line_iterate", "line_normal_equations"],
     "slam.pf._proposal_kernel": ["propose_particles"],
-    "slam.graph._match_kernel": ["match_lm"],
+    "slam.graph._match_kernel": ["match_lm", "match_lm_directional"],
     "slam.graph._tsdf_kernel": ["tsdf_insert", "estimate_normals"],
     "slam.graph._correlative_kernel": ["bnb_search", "score_candidates", "max_grids"],
     "slam.gn._normals_kernel": ["scan_normals"],

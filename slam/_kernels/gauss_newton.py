@@ -19,7 +19,7 @@ from numba import njit
 
 from slam._kernels.interp import add_normal_row, interp_point, interp_value_grad_ref, symmetrize_upper
 
-__all__ = ["gn_normal_equations", "gn_normal_equations_ref", "gn_update", "gn_iterate",
+__all__ = ["gn_normal_equations", "gn_normal_equations_ref", "gn_update", "solve3", "gn_iterate",
            "gn_iterate_ref", "NO_NORMALS"]
 
 NO_NORMALS = np.zeros((0, 2))
@@ -76,7 +76,7 @@ def gn_normal_equations_ref(prob, grid_meta, pts_robot, pose, normals=None):
 
 
 @njit(cache=True, nogil=True)
-def _solve3(H, g):
+def solve3(H, g):
     """Solution of the 3x3 system H x = g by Cramer's rule; (zeros, False) when singular."""
     a, b, c = H[0, 0], H[0, 1], H[0, 2]
     d, e, f = H[1, 0], H[1, 1], H[1, 2]
@@ -119,7 +119,7 @@ def gn_update(H, g, est, prior, prior_info, max_angle_step):
     if H[0, 0] == 0.0 and H[1, 1] == 0.0:
         return False
     add_prior(H, g, est, prior, prior_info)
-    step, ok = _solve3(H, g)
+    step, ok = solve3(H, g)
     if not ok:
         return False
     if step[2] > max_angle_step:

@@ -20,6 +20,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from slam._kernels.gauss_newton import solve3
 from slam._kernels.interp import (add_normal_row, bilinear, bilinear_cell, interp_point, interp_value_grad_ref,
                                   symmetrize_upper)
 
@@ -128,7 +129,9 @@ def _lm(prob, dir_tsd, dir_weight, truncation, mix, meta, pts, wts, pose0, prior
         A = H.copy()
         for a in range(3):
             A[a, a] += lam * (H[a, a] + 1e-9)
-        step = np.linalg.solve(A, -g)
+        step, solved = solve3(A, -g)
+        if not solved:
+            break
         trial = pose + step
         tcost = _cost_grad(prob, dir_tsd, dir_weight, truncation, mix, meta, pts, wts, trial, prior, w_occ, w_t, w_r,
                            Ht, gt)

@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from slam._kernels.gauss_newton import gn_normal_equations, gn_normal_equations_ref
+from slam._kernels.gauss_newton import gn_normal_equations, gn_normal_equations_ref, solve3
 
 
 def _unit_normals(rng, n):
@@ -136,3 +136,23 @@ def test_a_straight_wall_read_along_its_normals_steps_where_a_prior_pins_the_res
     assert pinned[0] == 0.0 and abs(pinned[1]) < 1e-3
     free, _ = gn_iterate(prob, meta, pts, start, 10, 0.2, prior, np.zeros((3, 3)), nrm)
     np.testing.assert_array_equal(free, start)
+
+
+@pytest.mark.kernel
+@pytest.mark.parametrize("seed", range(4))
+def test_solve3_equals_lapack(seed):
+    """Cramer's rule against np.linalg.solve on well- and badly-scaled systems (graph's damped
+    normal equations mix m^-2 and rad^-2 weights of 1e4 and more)."""
+    rng = np.random.default_rng(seed)
+    J = rng.normal(size=(50, 3)) * np.array([1.0, 3.0, 300.0])
+    H = J.T @ J + np.diag([1e4, 1e4, 1e2])
+    g = rng.normal(size=3)
+    x, ok = solve3(H, g)
+    assert ok
+    np.testing.assert_allclose(x, np.linalg.solve(H, g), rtol=1e-10, atol=0)
+
+
+def test_solve3_says_when_the_system_is_singular():
+    H = np.array([[1.0, 2.0, 0.0], [2.0, 4.0, 0.0], [0.0, 0.0, 1.0]])
+    x, ok = solve3(H, np.ones(3))
+    assert not ok and not np.any(x)
