@@ -29,7 +29,7 @@ class GaussNewtonSlam(Slam):
 
     config_class = GnConfig
     family = "Hector"
-    compile_cost_s = 5.0   # s, cold, its own kernels (docs/benchmark.md#cost)
+    compile_cost_s = 2.0   # s, cold, its own kernels (docs/benchmark.md#cost)
     deterministic = True   # no draw from rng: every SLAM seed gives the same run
 
     @classmethod

@@ -27,7 +27,7 @@ class GraphSlam(Slam):
 
     config_class = GraphConfig
     family = "Cartographer"
-    compile_cost_s = 23.0   # s, cold, its own kernels (docs/benchmark.md#cost)
+    compile_cost_s = 13.0   # s, cold, its own kernels (docs/benchmark.md#cost)
     deterministic = True   # no draw from rng: every SLAM seed gives the same run
     # the loop-closure search starts once the first submap is finished (about 250 scans on
     # the shipped worlds' routes): the warm-up has to get there to compile its kernels
