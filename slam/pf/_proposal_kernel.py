@@ -36,7 +36,7 @@ def _patch(tables, pool, grid_meta, p, pose, half, points, room, box, inner, pro
     own [ox, oy, resolution, rows, columns]. The patch keeps the frame of the whole box, so
     the matcher's arithmetic is the same whichever part of it is read."""
     patch_box(tables[p], grid_meta, pose, half, box)
-    for a in range(4):  # element writes: a slice copy compiles numba's shape-error message (2 s)
+    for a in range(4):  # element writes: a slice copy compiles numba's shape-error message (3 s)
         inner[a] = box[a]
     narrow_box(grid_meta, pose, points, room, inner)
     read_patch(tables[p], pool, grid_meta, box, inner, prob, hits, mean_off)
