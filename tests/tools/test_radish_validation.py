@@ -1,6 +1,7 @@
 """tools/radish_validation.py: the synthetic raw log and the relation matching."""
 import importlib.util
 import sys
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -50,3 +51,20 @@ def test_matched_relations_moves_the_clock_and_drops_far_ends():
     rel = Relations(np.array([100.0, 100.5, 101.26]), np.array([101.0, 102.0, 103.0]), np.zeros((3, 3)))
     got = rv.matched_relations(rel, np.array([0.0, 0.5, 1.0, 2.0]), offset=100.0, tol=0.02)
     assert np.allclose(got.t1, [0.0, 0.5]) and np.allclose(got.t2, [1.0, 2.0])
+
+
+def test_write_logset_leaves_out_a_log_the_checks_refuse_and_says_why(tmp_path, monkeypatch, capsys):
+    good = rv.synthetic_raw_log(_corrected_log(), 0.5, seed=1)
+    bent = good.odom_pose.copy()
+    bent[50:, 0] += 5.0                      # 5 m in one 0.1 s step: no robot, a broken log
+    monkeypatch.setattr(rv, "import_log", lambda path: _corrected_log())
+    monkeypatch.setattr(rv, "read_relations", lambda path: Relations(np.zeros(0), np.zeros(0), np.zeros((0, 3))))
+    monkeypatch.setattr(rv, "synthetic_raw_log",
+                        lambda log, scale, seed: good if seed else replace(good, odom_pose=bent))
+    code = rv.write_logset(tmp_path, ["fr079"], [0, 1], 0.5, tmp_path)
+    err = capsys.readouterr().err
+    assert code == 1
+    assert "fr079_s0.npz: odom_pose[50]: jumps" in err and len(err.strip().splitlines()) == 1
+    assert not (tmp_path / "fr079_s0.npz").exists() and (tmp_path / "fr079_s1.npz").exists()
+    listed = (tmp_path / "radish_validation.yaml").read_text()
+    assert "fr079_s1.npz" in listed and "fr079_s0" not in listed
