@@ -130,10 +130,10 @@ def _update(tsd, weight, r, c, d, w, max_weight):
 def tsdf_insert(tsd, weight, stamp, match, scan_id, meta, origin, hits, normals, truncation, max_weight,
                 angle_bandwidth, distance_bandwidth, dir_tsd, dir_weight, dir_stamp):
     """Insert one scan's hits (N, 2) (bearing order) with their normals (N,) from origin (2,).
-    tsd, weight (rows, cols) float64 and stamp (rows, cols) int64 are updated in place, and
+    tsd, weight (rows, cols) float64 and stamp (rows, cols) int32 are updated in place, and
     match (rows, cols) float64, which holds 1 - tsd / truncation, kept so in every cell
     whose tsd changes; dir_tsd, dir_weight (K, rows, cols) float64 and dir_stamp (K, rows,
-    cols) int64 the directional layers (K = 0: none). Returns the number of cell updates of
+    cols) int32 the directional layers (K = 0: none). Returns the number of cell updates of
     the one field."""
     ox, oy, res = meta[0], meta[1], meta[2]
     rows, cols = int(meta[3]), int(meta[4])

@@ -50,9 +50,9 @@ class TsdfGrid(GrowingGrid):
 
     def _layers(self) -> tuple:
         k = self.directions
-        return (("tsd", self.truncation, np.float64), ("weight", 0.0, np.float64), ("stamp", 0, np.int64),
+        return (("tsd", self.truncation, np.float64), ("weight", 0.0, np.float64), ("stamp", 0, np.int32),
                 ("match", 0.0, np.float64), ("dir_tsd", self.truncation, np.float64, k),
-                ("dir_weight", 0.0, np.float64, k), ("dir_stamp", 0, np.int64, k))
+                ("dir_weight", 0.0, np.float64, k), ("dir_stamp", 0, np.int32, k))
 
     def insert(self, origin_xy: np.ndarray, hits_xy: np.ndarray, opts) -> int:
         """Insert the hits (N, 2) of one scan taken from origin (2,), world frame m; opts: a

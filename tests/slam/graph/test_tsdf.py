@@ -45,9 +45,9 @@ def test_scan_normals_equal_reference(seed, samples, radius):
 def _grids(n, trunc, directions):
     """Empty TSDF layers as tsdf_insert takes them: tsd, weight, stamp, match, then the
     directional tsd, weight, stamp of `directions` layers."""
-    return (np.full((n, n), trunc), np.zeros((n, n)), np.zeros((n, n), np.int64), np.zeros((n, n)),
+    return (np.full((n, n), trunc), np.zeros((n, n)), np.zeros((n, n), np.int32), np.zeros((n, n)),
             np.full((directions, n, n), trunc), np.zeros((directions, n, n)),
-            np.zeros((directions, n, n), np.int64))
+            np.zeros((directions, n, n), np.int32))
 
 
 @pytest.mark.kernel
