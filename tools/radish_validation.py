@@ -62,6 +62,13 @@ HOLD_OUT = {
 }
 
 
+def hold_out_log(name: str) -> HoldOutLog:
+    """The hold-out log called `name`; InputError naming the known ones otherwise."""
+    if name not in HOLD_OUT:
+        raise InputError(f"--logs {name}: unknown log (known: {', '.join(HOLD_OUT)})")
+    return HOLD_OUT[name]
+
+
 def synthetic_raw_log(log: SensorLog, noise_scale: float, seed: int) -> SensorLog:
     """The corrected log with perturbed odometry at every scan and GMapping's scans only."""
     truth = log.odom_pose
@@ -104,7 +111,7 @@ def write_logset(out: Path, names: list[str], seeds: list[int], noise_scale: flo
     out.mkdir(parents=True, exist_ok=True)
     entries, refused = [], 0
     for name in names:
-        spec = HOLD_OUT[name]
+        spec = hold_out_log(name)
         log = import_log(data / spec.log)
         rel = matched_relations(read_relations(data / spec.relations), log.scan_t,
                                 spec.clock_offset, spec.tolerance)
@@ -144,6 +151,8 @@ def main(argv: list[str] | None = None) -> int:
                     help="write the logs, their relations and a log set into DIR; run nothing")
     args = ap.parse_args(argv)
     try:
+        for name in args.logs.split(","):     # every name checked before any work
+            hold_out_log(name)
         if args.write:
             return write_logset(args.write, args.logs.split(","),
                                 [int(s) for s in args.seeds.split(",")], args.noise_scale, args.data)
@@ -162,7 +171,7 @@ def validate(args: argparse.Namespace) -> int:
         set_override(cfg, s)
     errors = []
     for name in args.logs.split(","):
-        spec = HOLD_OUT[name]
+        spec = hold_out_log(name)
         log = import_log(args.data / spec.log)
         rel = matched_relations(read_relations(args.data / spec.relations), log.scan_t,
                                 spec.clock_offset, spec.tolerance)

@@ -68,3 +68,9 @@ def test_write_logset_leaves_out_a_log_the_checks_refuse_and_says_why(tmp_path, 
     assert not (tmp_path / "fr079_s0.npz").exists() and (tmp_path / "fr079_s1.npz").exists()
     listed = (tmp_path / "radish_validation.yaml").read_text()
     assert "fr079_s1.npz" in listed and "fr079_s0" not in listed
+
+
+def test_an_unknown_log_is_one_line_and_exit_2_before_any_work(tmp_path, capsys):
+    assert rv.main(["--logs", "intel,nowhere", "--write", str(tmp_path / "set")]) == 2
+    assert capsys.readouterr().err == "error: --logs nowhere: unknown log (known: intel, fr079)\n"
+    assert not (tmp_path / "set").exists()
