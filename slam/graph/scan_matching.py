@@ -96,15 +96,22 @@ def range_weights(points: np.ndarray, near_range: float) -> np.ndarray:
     return np.minimum(1.0, (near_range / np.maximum(r, 1e-6)) ** 2)
 
 
+def _lm_args(points: np.ndarray, start: np.ndarray, prior: np.ndarray, cfg: CeresScanMatcherConfig,
+             weights: np.ndarray | None) -> tuple:
+    """The least squares' arguments after the grid: points, weights, start, and the target the
+    pulls hold to (translation prior[:2], rotation start[2], as Cartographer's ceres matcher),
+    then cfg's weights and iterations."""
+    target = np.array([prior[0], prior[1], start[2]])
+    w = np.ones(len(points)) if weights is None else np.asarray(weights, np.float64)
+    return (np.ascontiguousarray(points, dtype=np.float64), w, np.asarray(start, np.float64), target,
+            cfg.occupied_space_weight, cfg.translation_weight, cfg.rotation_weight, cfg.max_num_iterations)
+
+
 def ceres_match(prob: np.ndarray, meta: np.ndarray, points: np.ndarray, start: np.ndarray,
                 prior: np.ndarray, cfg: CeresScanMatcherConfig, weights: np.ndarray | None = None) -> np.ndarray:
     """Pose (3,) from least squares started at `start`; translation pulled toward prior[:2],
     rotation toward start[2] (as Cartographer's ceres matcher); weights: (N,) per point or None."""
-    target = np.array([prior[0], prior[1], start[2]])
-    w = np.ones(len(points)) if weights is None else np.asarray(weights, np.float64)
-    pose, _ = match_lm(prob, meta, np.ascontiguousarray(points, dtype=np.float64), w,
-                       np.asarray(start, np.float64), target, cfg.occupied_space_weight,
-                       cfg.translation_weight, cfg.rotation_weight, cfg.max_num_iterations)
+    pose, _ = match_lm(prob, meta, *_lm_args(points, start, prior, cfg, weights))
     return pose
 
 
@@ -119,12 +126,8 @@ def submap_match(submap, points: np.ndarray, normals: np.ndarray | None, start: 
         return ceres_match(prob, meta, points, start, prior, cfg, weights)
     dir_tsd, dir_weight, truncation, meta = layers
     mix = direction_mixes(np.asarray(normals, np.float64) + float(start[2]), dir_tsd.shape[0])
-    target = np.array([prior[0], prior[1], start[2]])
-    w = np.ones(len(points)) if weights is None else np.asarray(weights, np.float64)
     pose, _ = match_lm_directional(dir_tsd, dir_weight, float(truncation), mix, meta,
-                                   np.ascontiguousarray(points, dtype=np.float64), w,
-                                   np.asarray(start, np.float64), target, cfg.occupied_space_weight,
-                                   cfg.translation_weight, cfg.rotation_weight, cfg.max_num_iterations)
+                                   *_lm_args(points, start, prior, cfg, weights))
     return pose
 
 

@@ -75,6 +75,11 @@ class TsdfGrid(GrowingGrid):
         return int(n)
 
 
+def _bearing_order(origin: np.ndarray, hits: np.ndarray) -> np.ndarray:
+    """Indices of the hits (N, 2) in bearing order from origin (2,), ties in input order."""
+    return np.argsort(np.arctan2(hits[:, 1] - origin[1], hits[:, 0] - origin[0]), kind="mergesort")
+
+
 def tsdf_scan(origin_xy: np.ndarray, hits_xy: np.ndarray, opts) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """One scan as the TSDF inserter takes it: (origin (2,), hits (N, 2) in bearing order from
     the origin, their normal angles (N,) rad); opts: a TsdfInserterConfig. Computed once for
@@ -83,8 +88,7 @@ def tsdf_scan(origin_xy: np.ndarray, hits_xy: np.ndarray, opts) -> tuple[np.ndar
     hits = np.asarray(hits_xy, np.float64).reshape(-1, 2)
     if len(hits) == 0:
         return origin, hits, np.zeros(0)
-    order = np.argsort(np.arctan2(hits[:, 1] - origin[1], hits[:, 0] - origin[0]), kind="mergesort")
-    hits = np.ascontiguousarray(hits[order])
+    hits = np.ascontiguousarray(hits[_bearing_order(origin, hits)])
     normals = estimate_normals(origin, hits, int(opts.num_normal_samples), float(opts.sample_radius))
     return origin, hits, normals
 
@@ -95,7 +99,7 @@ def scan_normals(origin_xy: np.ndarray, hits_xy: np.ndarray, opts) -> np.ndarray
     TsdfInserterConfig."""
     origin = np.asarray(origin_xy, np.float64)[:2]
     hits = np.asarray(hits_xy, np.float64).reshape(-1, 2)
-    order = np.argsort(np.arctan2(hits[:, 1] - origin[1], hits[:, 0] - origin[0]), kind="mergesort")
+    order = _bearing_order(origin, hits)
     out = np.empty(len(hits))
     out[order] = estimate_normals(np.ascontiguousarray(origin), np.ascontiguousarray(hits[order]),
                                   int(opts.num_normal_samples), float(opts.sample_radius))
