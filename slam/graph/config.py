@@ -161,8 +161,6 @@ class LocalConfig:
     # calibrated MEMS gyro keeps ~0.01 deg/s of bias, which the pull to the prediction passes
     # into the submaps
     gyro_bias_time_constant: float = 30.0
-    gyro_bias_max_rate: float = 0.05         # ours: rad/s, the bias is learned from scans taken
-                                             # while the gyro reads less (driving straight)
     use_online_correlative_scan_matching: bool = False  # Cartographer default (TB3: true; its
                                              # 1-cell / 0.8 deg lattice then anchors the rotation)
     match_near_range: float = 2.6            # ours: > 0 weights each point in the least squares by
@@ -184,8 +182,6 @@ class LocalConfig:
         _positive(self, "max_range", "voxel_filter_size")
         if self.gyro_bias_time_constant < 0:
             raise ValueError(f"gyro_bias_time_constant must be >= 0, got {self.gyro_bias_time_constant}")
-        if not self.gyro_bias_max_rate > 0:
-            raise ValueError(f"gyro_bias_max_rate must be positive, got {self.gyro_bias_max_rate}")
 
 
 @dataclass(frozen=True)

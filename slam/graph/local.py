@@ -166,10 +166,9 @@ class LocalSlam:
         minus the bias's integral: their sum telescopes to the change of the yaw error, which
         stays bounded, plus -bias x time. A scan's correction is about -(bias left) x dt, so
         taking correction / tau off the estimate closes the gap with time constant tau.
-        add_scan calls it only for scans whose rotation came from the gyro, taken while it read
-        less than gyro_bias_max_rate: in a turn the matcher's corrections also scale with the
-        turn (against the gyro, 0.04-0.3 % of it on swirl_l), which a route that turns mostly
-        one way would learn as a bias."""
+        add_scan calls it for every scan whose rotation came from the gyro, turns included: on a
+        route into new ground the scans of a turn, which look back at walls inserted long
+        before, are where most of a bias shows."""
         tau = self.cfg.gyro_bias_time_constant
         if tau > 0:
             self.gyro_bias -= float(wrap_angle(correction)) / tau
@@ -192,7 +191,7 @@ class LocalSlam:
                 start = found.pose
             w = self.match_weights(submap, match_pts, start)
             pose = submap_match(submap, match_pts, match_normals, start, pred, self.cfg.ceres_scan_matcher, w)
-            if self._uses_gyro(imu) and abs(twist[2]) < self.cfg.gyro_bias_max_rate:
+            if self._uses_gyro(imu):
                 self._learn_gyro_bias(pose[2] - pred[2])
         pose = np.array([pose[0], pose[1], wrap_angle(pose[2])])
         self.prev_pose, self.prev_t = self.pose, self.t
