@@ -9,7 +9,6 @@ out expressed in the robot frame at scan.t, the time the SLAM's pose refers to.
 """
 from __future__ import annotations
 
-import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -19,12 +18,9 @@ from slam.base import ImuWindow, OdomDelta, Scan
 from slam.pose import relative
 
 __all__ = ["PreprocessConfig", "ScanPoints", "preprocess", "twist_from_poses", "yaw_rate_from_imu",
-           "sweep_twist", "CENSOR_HALF_WINDOW", "censored_hits", "without_censored_hits"]
+           "sweep_twist"]
 
 _NO_TWIST = np.zeros(3)
-
-# censored_hits: beams on either side whose readings tell how far the surface lies
-CENSOR_HALF_WINDOW = 4
 
 
 @dataclass(frozen=True)
@@ -127,44 +123,3 @@ def sweep_twist(scan: Scan, odom: OdomDelta | None, imu: ImuWindow | None,
     if len(gyro):
         twist[2] = float(np.mean(gyro))
     return twist
-
-
-def censored_hits(ranges: np.ndarray, range_max: float, sigma: float, margin_sigmas: float,
-                  half_window: int = CENSOR_HALF_WINDOW) -> np.ndarray:
-    """(B,) bool: the hits among the ranges (B,) m (a revolution, inf or >= range_max = no
-    return) of surfaces within margin_sigmas sigma of the maximum range, sigma (m) the range
-    noise there. margin_sigmas <= 0: none.
-
-    A lidar returns nothing for a reading beyond its maximum range, so of a wall near it only
-    the short readings come back, and they put it nearer than it is: a wall at range_max -
-    2 sigma keeps 98 % of its readings, 0.06 sigma short on average, one at range_max - sigma
-    84 %, 0.29 sigma short, one at range_max half, 0.8 sigma short. Where a surface lies is
-    read from the other hits within half_window beams and 4 sigma of the beam's range (a
-    nearer object beside it is not its surface), their mean; a hit with no such neighbour
-    has only its own range. The neighbours decide, so the hits kept are not chosen by their
-    own noise."""
-    r = np.asarray(ranges, dtype=np.float64)
-    n = len(r)
-    hit = np.isfinite(r) & (r > 0) & (r < range_max)
-    if margin_sigmas <= 0 or n == 0:
-        return np.zeros(n, bool)
-    offsets = np.concatenate([np.arange(-half_window, 0), np.arange(1, half_window + 1)])
-    near = (np.arange(n)[:, None] + offsets[None, :]) % n
-    hr = np.where(hit, r, np.nan)
-    same = np.abs(hr[near] - hr[:, None]) < 4.0 * sigma          # NaN (not a hit) compares False
-    count = same.sum(axis=1)
-    surface = np.where(count > 0, np.where(same, r[near], 0.0).sum(axis=1) / np.maximum(count, 1), r)
-    return hit & (surface > range_max - margin_sigmas * sigma)
-
-
-def without_censored_hits(scan: Scan, range_max: float, margin_sigmas: float) -> Scan:
-    """The scan with the censored_hits of its ranges dropped (NaN: neither hit nor no return),
-    the noise read from its range model at range_max (m; 0: the scan's own); itself when none
-    is dropped."""
-    rmax = float(scan.range_max) if range_max <= 0 else min(float(range_max), float(scan.range_max))
-    drop = censored_hits(scan.ranges, rmax, float(scan.range_noise.sigma(rmax)), margin_sigmas)
-    if not drop.any():
-        return scan
-    ranges = np.array(scan.ranges, dtype=np.float64)
-    ranges[drop] = np.nan
-    return dataclasses.replace(scan, ranges=ranges)

@@ -151,10 +151,6 @@ class LocalConfig:
     min_range: float = 0.12                  # m, closer readings are dropped (TB3)
     max_range: float = 3.5                   # m, farther readings are no return (TB3)
     missing_data_ray_length: float = 3.0     # TB3; no-return beams free space up to this range
-    # ours: the hits of a surface within this many sigma of the range noise of max_range are
-    # dropped (slam.preprocess.censored_hits): its farther readings return nothing, so those
-    # left put it too near (0 = keep every hit)
-    censored_hit_margin: float = 2.0
     voxel_filter_size: float = 0.025         # m, one point per voxel before insertion
     # Cartographer's voxel filters keep a random point of each voxel (RandomizedVoxelFilter);
     # false keeps the first, which favours the first beams of the sweep
@@ -184,8 +180,6 @@ class LocalConfig:
 
     def __post_init__(self):
         _positive(self, "max_range", "voxel_filter_size")
-        if self.censored_hit_margin < 0:
-            raise ValueError(f"censored_hit_margin must be >= 0, got {self.censored_hit_margin}")
         if self.gyro_bias_time_constant < 0:
             raise ValueError(f"gyro_bias_time_constant must be >= 0, got {self.gyro_bias_time_constant}")
 

@@ -16,7 +16,7 @@ import numpy as np
 
 from slam.base import ImuWindow, OdomDelta, Scan
 from slam.pose import compose, relative, transform_points, wrap_angle
-from slam.preprocess import PreprocessConfig, preprocess, without_censored_hits, yaw_rate_from_imu
+from slam.preprocess import PreprocessConfig, preprocess, yaw_rate_from_imu
 from slam.graph.config import LocalConfig, MotionFilterConfig
 from slam.graph.filters import adaptive_voxel_filter, voxel_filter
 from slam.graph.scan_matching import range_weights, real_time_correlative_match, seen_weights, submap_match
@@ -130,7 +130,6 @@ class LocalSlam:
         """(preprocessed scan, voxel-filtered hits as inserted, their normals (robot frame) or
         None, adaptively filtered points as matched, theirs) of one scan taken while moving at
         twist (3,)."""
-        scan = without_censored_hits(scan, self.cfg.max_range, self.cfg.censored_hit_margin)
         sp = preprocess(scan, self.pre, twist)
         randomized = self.cfg.randomized_voxel_filter
         hits = voxel_filter(sp.points, self.cfg.voxel_filter_size, randomized)

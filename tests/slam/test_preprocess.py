@@ -5,8 +5,7 @@ import pytest
 from slam.base import ImuWindow, OdomDelta, Scan
 from slam._kernels.beams import _median_step, motion_during, scan_points, scan_points_ref
 from slam._kernels.smooth import smooth_ranges
-from slam.preprocess import (PreprocessConfig, censored_hits, preprocess, sweep_twist, twist_from_poses,
-                             without_censored_hits, yaw_rate_from_imu)
+from slam.preprocess import PreprocessConfig, preprocess, sweep_twist, twist_from_poses, yaw_rate_from_imu
 from slam.pose import compose
 
 ANGLES = np.linspace(0, 2 * np.pi, 8, endpoint=False)
@@ -173,54 +172,3 @@ def test_yaw_rate_from_imu_integrates_by_timestamps():
     assert abs(by_mean - whole) > 10 * abs(by_time - whole)
     assert yaw_rate_from_imu(None, 0.0, 0.2) is None
     assert yaw_rate_from_imu(win, 0.2, 0.2) == pytest.approx(float(np.mean(win.gyro)))
-
-
-def _censored_revolution(rng, walls, sigma, range_max=3.5):
-    """(360,) ranges of equal sectors of beams at the given true distances (inf: open space) with
-    Gaussian range noise of sigma, readings beyond range_max lost as a lidar loses them."""
-    d = np.repeat(np.asarray(walls, float), 360 // len(walls))
-    r = d + rng.normal(0.0, sigma, d.shape)
-    r[~(r < range_max)] = np.inf
-    return d, r
-
-
-def test_censored_hits_drop_walls_near_the_maximum_range_and_keep_the_others(rng):
-    sigma, rmax = 0.0875, 3.5          # the LDS-01 at 3.5 m (2.5 % of the range)
-    walls = [1.0, np.inf, 2.9, np.inf, 3.3, np.inf, 3.45, 3.5]
-    kept = {w: [] for w in walls if np.isfinite(w)}
-    uncensored = {w: [] for w in kept}
-    for _ in range(300):
-        d, r = _censored_revolution(rng, walls, sigma, rmax)
-        drop = censored_hits(r, rmax, sigma, 2.0)
-        assert not (drop & ~np.isfinite(r)).any()           # only hits are dropped
-        for w in kept:
-            sel = (d == w) & np.isfinite(r)
-            kept[w].append(r[sel & ~drop])
-            uncensored[w].append(r[sel])
-    kept = {w: np.concatenate(v) for w, v in kept.items()}
-    uncensored = {w: np.concatenate(v) for w, v in uncensored.items()}
-    # the near walls keep every hit, the one beside open space its edges too
-    assert len(kept[1.0]) == len(uncensored[1.0]) and len(kept[2.9]) == len(uncensored[2.9])
-    # walls within a sigma of the range limit, whose readings come back short, are dropped
-    for w in (3.45, 3.5):
-        assert uncensored[w].mean() < w - 0.2 * sigma
-        assert len(kept[w]) < 0.02 * len(uncensored[w])
-    # in between some go, chosen by their neighbours: those kept are not the short ones
-    assert 0.1 < 1 - len(kept[3.3]) / len(uncensored[3.3]) < 0.5
-    assert kept[3.3].mean() == pytest.approx(uncensored[3.3].mean(), abs=3 * sigma / np.sqrt(len(kept[3.3])))
-    assert not censored_hits(r, rmax, sigma, 0.0).any()
-
-
-def test_without_censored_hits_leaves_neither_hit_nor_no_return(rng):
-    angles = np.linspace(0, 2 * np.pi, 360, endpoint=False)
-    d, r = _censored_revolution(rng, [1.0, 3.5, 2.0], 0.0875)
-    scan = Scan(0.0, r, angles, 0.12, 3.5, np.zeros(3))
-    out = without_censored_hits(scan, 3.5, 2.0)
-    gone = np.isnan(out.ranges)
-    assert gone.any() and np.all(d[gone] == 3.5) and np.isfinite(r[gone]).all()
-    cfg = PreprocessConfig(free_range=3.0)
-    before, after = preprocess(scan, cfg), preprocess(out, cfg)
-    assert len(after.points) == len(before.points) - gone.sum()
-    assert len(after.misses) == len(before.misses)
-    near = Scan(0.0, np.full(360, 1.0), angles, 0.12, 3.5, np.zeros(3))
-    assert without_censored_hits(near, 3.5, 2.0) is near
