@@ -9,18 +9,26 @@ out expressed in the robot frame at scan.t, the time the SLAM's pose refers to.
 """
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
 
 from slam._kernels.beams import scan_points
+from slam._kernels.censor import censoring_shortfall
 from slam.base import ImuWindow, OdomDelta, Scan
 from slam.pose import relative
 
 __all__ = ["PreprocessConfig", "ScanPoints", "preprocess", "twist_from_poses", "yaw_rate_from_imu",
-           "sweep_twist"]
+           "sweep_twist", "CENSOR_HALF_WINDOW", "CENSOR_HEADROOM_SIGMAS",
+           "censoring_corrected"]
 
 _NO_TWIST = np.zeros(3)
+
+# censoring_corrected: beams on either side whose readings tell how far a surface lies, and
+# the room above the limit for the lengthened hits (a shortfall is at most 1.53 sigma)
+CENSOR_HALF_WINDOW = 4
+CENSOR_HEADROOM_SIGMAS = 2.0
 
 
 @dataclass(frozen=True)
@@ -123,3 +131,25 @@ def sweep_twist(scan: Scan, odom: OdomDelta | None, imu: ImuWindow | None,
     if len(gyro):
         twist[2] = float(np.mean(gyro))
     return twist
+
+
+def censoring_corrected(scan: Scan, range_max: float = 0.0) -> Scan:
+    """The scan with each hit lengthened by the mean shortfall the lidar's maximum range leaves
+    on the readings of its surface (slam/_kernels/censor.py), range_max (m) that limit (0: the
+    scan's own; no larger than it), the noise read from the scan's range model there.
+
+    A lidar returns nothing for a reading beyond its maximum range, so of a wall near it only
+    the short readings come back and they put it nearer than it is: with the LDS-01's 87.5 mm
+    at 3.5 m, a wall at 3.41 m keeps 85 % of its readings, 24 mm short on average, one at
+    3.5 m half, 70 mm short. The readings at or beyond the limit become inf (no return), and
+    the result's range_max lies CENSOR_HEADROOM_SIGMAS above the limit, so a hit lengthened
+    past it is still a hit."""
+    rmax = float(scan.range_max) if range_max <= 0 else min(float(range_max), float(scan.range_max))
+    ranges = np.asarray(scan.ranges, dtype=np.float64)
+    n = len(ranges)
+    sigma = float(scan.range_noise.sigma(rmax))
+    step = float(np.median(np.diff(scan.angles))) if n > 1 else 0.0
+    circular = n > 1 and abs(step * n - 2 * np.pi) < 1e-6
+    shortfall = censoring_shortfall(ranges, rmax, sigma, CENSOR_HALF_WINDOW, circular)
+    out = np.where(ranges >= rmax, np.inf, ranges + shortfall)
+    return dataclasses.replace(scan, ranges=out, range_max=rmax + CENSOR_HEADROOM_SIGMAS * sigma)

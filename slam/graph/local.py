@@ -9,6 +9,7 @@ All poses here are in the local frame, which starts at the start pose.
 """
 from __future__ import annotations
 
+import dataclasses
 from collections import deque
 from dataclasses import dataclass
 
@@ -16,7 +17,7 @@ import numpy as np
 
 from slam.base import ImuWindow, OdomDelta, Scan
 from slam.pose import compose, relative, transform_points, wrap_angle
-from slam.preprocess import PreprocessConfig, preprocess, yaw_rate_from_imu
+from slam.preprocess import PreprocessConfig, censoring_corrected, preprocess, yaw_rate_from_imu
 from slam.graph.config import LocalConfig, MotionFilterConfig
 from slam.graph.filters import adaptive_voxel_filter, voxel_filter
 from slam.graph.scan_matching import range_weights, real_time_correlative_match, seen_weights, submap_match
@@ -130,7 +131,11 @@ class LocalSlam:
         """(preprocessed scan, voxel-filtered hits as inserted, their normals (robot frame) or
         None, adaptively filtered points as matched, theirs) of one scan taken while moving at
         twist (3,)."""
-        sp = preprocess(scan, self.pre, twist)
+        # the lidar returns nothing beyond max_range, so the readings of a wall near it that
+        # come back are short: each hit is lengthened by its surface's mean shortfall, and
+        # stays a hit past max_range
+        scan = censoring_corrected(scan, self.cfg.max_range)
+        sp = preprocess(scan, dataclasses.replace(self.pre, range_max=scan.range_max), twist)
         randomized = self.cfg.randomized_voxel_filter
         hits = voxel_filter(sp.points, self.cfg.voxel_filter_size, randomized)
         av = self.cfg.adaptive_voxel_filter

@@ -5,7 +5,9 @@ import pytest
 from slam.base import ImuWindow, OdomDelta, Scan
 from slam._kernels.beams import _median_step, motion_during, scan_points, scan_points_ref
 from slam._kernels.smooth import smooth_ranges
-from slam.preprocess import PreprocessConfig, preprocess, sweep_twist, twist_from_poses, yaw_rate_from_imu
+from slam.preprocess import (PreprocessConfig, censoring_corrected, preprocess, sweep_twist, twist_from_poses,
+                             yaw_rate_from_imu)
+from slam.range_noise import DEFAULT_RANGE_NOISE
 from slam.pose import compose
 
 ANGLES = np.linspace(0, 2 * np.pi, 8, endpoint=False)
@@ -172,3 +174,28 @@ def test_yaw_rate_from_imu_integrates_by_timestamps():
     assert abs(by_mean - whole) > 10 * abs(by_time - whole)
     assert yaw_rate_from_imu(None, 0.0, 0.2) is None
     assert yaw_rate_from_imu(win, 0.2, 0.2) == pytest.approx(float(np.mean(win.gyro)))
+
+
+def test_censoring_corrected_lengthens_the_hits_near_the_limit_by_the_scans_noise_model(rng):
+    angles = np.linspace(0, 2 * np.pi, 360, endpoint=False)
+    d = np.where(np.arange(360) < 180, 1.5, 3.45)          # a near wall ahead, a far one behind
+    r = d + rng.normal(0.0, 1.0, 360) * DEFAULT_RANGE_NOISE.sigma(d)
+    r[r >= 3.5] = np.inf                                     # the lidar loses what lies beyond 3.5 m
+    r[5] = np.nan
+    scan = Scan(0.0, r, angles, 0.12, 3.5, np.zeros(3))
+    out = censoring_corrected(scan)
+    far = (d == 3.45) & np.isfinite(r)
+    assert np.array_equal(out.ranges[~far], r[~far], equal_nan=True)
+    lift = out.ranges[far] - r[far]
+    sigma = DEFAULT_RANGE_NOISE.sigma(3.5)
+    assert np.all(lift > 0) and 0.3 * sigma < lift.mean() < 1.0 * sigma
+    assert abs(out.ranges[far].mean() - 3.45) < abs(r[far].mean() - 3.45)
+    assert out.range_max == pytest.approx(3.5 + 2 * sigma)  # room for the lengthened hits
+    assert preprocess(out, PreprocessConfig()).points.shape[0] == np.sum(r < 3.5)
+    # a limit below the sensor's censors there: what lies beyond it is no return
+    lower = censoring_corrected(scan, 3.0)
+    assert np.all(np.isinf(lower.ranges[d == 3.45]))
+    assert np.array_equal(lower.ranges[d == 1.5], r[d == 1.5], equal_nan=True)
+    # a fan of beams (not a whole revolution) has no neighbour across its ends
+    fan = Scan(0.0, r[170:190], angles[170:190], 0.12, 3.5, np.zeros(3))
+    assert np.all(censoring_corrected(fan).ranges[:10] == r[170:180])
