@@ -6,7 +6,8 @@ the mean of a normal truncated at R: d - sigma * phi(a) / Phi(a), a = (R - d) / 
 surface's distance is read from the other hits within half_window beams and SAME_SURFACE_SIGMAS
 of the beam's range (their mean m, the beam's own range if there is none), d solved from
 m = d - sigma * phi(a) / Phi(a) by fixed-point iteration (the map d -> m + sigma * phi(a) /
-Phi(a) contracts: its slope is the truncated normal's variance ratio, below 1), and the hit's
+Phi(a) contracts: its slope is one less the truncated normal's variance ratio, between 0 and
+1), and the hit's
 shortfall is sigma * phi(a) / Phi(a) at that d. The neighbours decide, so a hit's own noise does
 not choose its correction.
 
@@ -40,9 +41,11 @@ def censoring_shortfall(ranges, range_max, sigma, half_window, circular):
     """ranges: (B,) m, a revolution (inf, NaN, <= 0 or >= range_max: not a hit); sigma: m,
     the range noise near range_max; circular: beam B-1 neighbours beam 0. Returns (B,) m,
     the mean shortfall of each hit's reading (0 for non-hits and hits of surfaces more than
-    FAR_SIGMAS inside the limit)."""
+    FAR_SIGMAS inside the limit; all 0 for sigma <= 0, a sensor without noise)."""
     n = ranges.shape[0]
     out = np.zeros(n)
+    if not sigma > 0.0:
+        return out
     for i in range(n):
         r = ranges[i]
         if not (r > 0.0 and r < range_max):
@@ -77,6 +80,8 @@ def censoring_shortfall_ref(ranges, range_max, sigma, half_window, circular=True
     """Reference for censoring_shortfall: the same in whole-array numpy."""
     r = np.asarray(ranges, dtype=np.float64)
     n = len(r)
+    if not sigma > 0:
+        return np.zeros(n)
     hit = (r > 0) & (r < range_max)                              # NaN compares False
     offsets = np.concatenate([np.arange(-half_window, 0), np.arange(1, half_window + 1)])
     j = np.arange(n)[:, None] + offsets[None, :]

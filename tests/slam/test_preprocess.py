@@ -4,6 +4,7 @@ import pytest
 
 from slam.base import ImuWindow, OdomDelta, Scan
 from slam._kernels.beams import _median_step, motion_during, scan_points, scan_points_ref
+from slam._kernels.censor import censoring_shortfall
 from slam._kernels.smooth import smooth_ranges
 from slam.preprocess import (PreprocessConfig, censoring_corrected, preprocess, sweep_twist, twist_from_poses,
                              yaw_rate_from_imu)
@@ -196,6 +197,14 @@ def test_censoring_corrected_lengthens_the_hits_near_the_limit_by_the_scans_nois
     lower = censoring_corrected(scan, 3.0)
     assert np.all(np.isinf(lower.ranges[d == 3.45]))
     assert np.array_equal(lower.ranges[d == 1.5], r[d == 1.5], equal_nan=True)
-    # a fan of beams (not a whole revolution) has no neighbour across its ends
-    fan = Scan(0.0, r[170:190], angles[170:190], 0.12, 3.5, np.zeros(3))
-    assert np.all(censoring_corrected(fan).ranges[:10] == r[170:180])
+    # a fan of beams (not a whole revolution) has no neighbour across its ends: its first beam,
+    # alone, is corrected by its own range, the same beam of a revolution by its last beams'
+    ends = np.full(20, np.inf)
+    ends[0], ends[-4:] = 3.40, [3.42, 3.43, 3.41, 3.44]
+    sigma = DEFAULT_RANGE_NOISE.sigma(3.5)
+    fan = censoring_corrected(Scan(0.0, ends, angles[:20], 0.12, 3.5, np.zeros(3)))
+    ring = censoring_corrected(Scan(0.0, ends, np.linspace(0, 2 * np.pi, 20, endpoint=False), 0.12, 3.5,
+                                    np.zeros(3)))
+    assert fan.ranges[0] == pytest.approx(3.40 + censoring_shortfall(ends, 3.5, sigma, 4, False)[0])
+    assert ring.ranges[0] == pytest.approx(3.40 + censoring_shortfall(ends, 3.5, sigma, 4, True)[0])
+    assert ring.ranges[0] > fan.ranges[0] + 1e-4        # the neighbours' wall is farther

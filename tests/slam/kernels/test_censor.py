@@ -62,3 +62,10 @@ def test_a_lone_hit_is_corrected_by_its_own_range():
     short = censoring_shortfall(r, RMAX, SIGMA, 4, True)
     assert short[10] > 0.5 * SIGMA and np.count_nonzero(short) == 1
     np.testing.assert_allclose(short, censoring_shortfall_ref(r, RMAX, SIGMA, 4, True))
+
+
+def test_a_sensor_without_noise_loses_nothing():
+    r = np.array([3.49, 3.499, np.inf, 1.0])
+    for sigma in (0.0, -1.0):
+        assert not censoring_shortfall(r, RMAX, sigma, 4, True).any()
+        assert not censoring_shortfall_ref(r, RMAX, sigma, 4, True).any()
