@@ -8,8 +8,8 @@ from slam._kernels.censor import censoring_shortfall
 from slam._kernels.smooth import smooth_ranges
 from slam.preprocess import (PreprocessConfig, censoring_corrected, preprocess, sweep_twist, twist_from_poses,
                              yaw_rate_from_imu)
-from slam.range_noise import DEFAULT_RANGE_NOISE
 from slam.pose import compose
+from slam.range_noise import DEFAULT_RANGE_NOISE
 
 ANGLES = np.linspace(0, 2 * np.pi, 8, endpoint=False)
 
@@ -201,7 +201,6 @@ def test_censoring_corrected_lengthens_the_hits_near_the_limit_by_the_scans_nois
     # alone, is corrected by its own range, the same beam of a revolution by its last beams'
     ends = np.full(20, np.inf)
     ends[0], ends[-4:] = 3.40, [3.42, 3.43, 3.41, 3.44]
-    sigma = DEFAULT_RANGE_NOISE.sigma(3.5)
     fan = censoring_corrected(Scan(0.0, ends, angles[:20], 0.12, 3.5, np.zeros(3)))
     ring = censoring_corrected(Scan(0.0, ends, np.linspace(0, 2 * np.pi, 20, endpoint=False), 0.12, 3.5,
                                     np.zeros(3)))
