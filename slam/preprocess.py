@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from slam._kernels.beams import scan_points
+from slam._kernels.beams import closes_turn, scan_points
 from slam._kernels.censor import censoring_shortfall
 from slam.base import ImuWindow, OdomDelta, Scan
 from slam.pose import relative
@@ -146,10 +146,9 @@ def censoring_corrected(scan: Scan, range_max: float = 0.0) -> Scan:
     past it is still a hit."""
     rmax = float(scan.range_max) if range_max <= 0 else min(float(range_max), float(scan.range_max))
     ranges = np.asarray(scan.ranges, dtype=np.float64)
-    n = len(ranges)
     sigma = float(scan.range_noise.sigma(rmax))
-    step = float(np.median(np.diff(scan.angles))) if n > 1 else 0.0
-    circular = n > 1 and abs(step * n - 2 * np.pi) < 1e-6
+    step = float(np.median(np.diff(scan.angles))) if len(ranges) > 1 else 0.0
+    circular = bool(closes_turn(step, len(ranges)))
     shortfall = censoring_shortfall(ranges, rmax, sigma, CENSOR_HALF_WINDOW, circular)
     out = np.where(ranges >= rmax, np.inf, ranges + shortfall)
     return dataclasses.replace(scan, ranges=out, range_max=rmax + CENSOR_HEADROOM_SIGMAS * sigma)

@@ -13,7 +13,7 @@ from numba import njit
 
 from slam._kernels.smooth import smooth_ranges
 
-__all__ = ["scan_points", "scan_points_ref", "motion_during"]
+__all__ = ["scan_points", "scan_points_ref", "motion_during", "closes_turn"]
 
 
 @njit(cache=True, nogil=True)
@@ -85,6 +85,12 @@ def _median_step(angles):
 
 
 @njit(cache=True, nogil=True)
+def closes_turn(step, n):
+    """True when n beams step (rad) apart close a whole turn: the last neighbours the first."""
+    return n > 1 and abs(step * n - 2 * np.pi) < 1e-6
+
+
+@njit(cache=True, nogil=True)
 def scan_points(ranges, angles, offset, range_min, range_max, free_range, smooth_beams,
                 smooth_jump, twist, time_increment, deskew):
     """(points (N, 2), misses (M, 2)) in the robot frame of one revolution.
@@ -114,8 +120,7 @@ def scan_points(ranges, angles, offset, range_min, range_max, free_range, smooth
     if smooth_beams > 0 and n_hit > 0:
         # beams are equally spaced over the revolution: the fan's angle step is the beams' step
         step = _median_step(angles)
-        full = n > 1 and abs(step * n - 2 * np.pi) < 1e-6
-        along, across = smooth_ranges(r, hit, smooth_beams, smooth_jump, step, full)
+        along, across = smooth_ranges(r, hit, smooth_beams, smooth_jump, step, closes_turn(step, n))
         for j in range(n):
             if hit[j]:
                 r[j] = along[j]

@@ -7,9 +7,8 @@ surface's distance is read from the other hits within half_window beams and SAME
 of the beam's range (their mean m, the beam's own range if there is none), d solved from
 m = d - sigma * phi(a) / Phi(a) by fixed-point iteration (the map d -> m + sigma * phi(a) /
 Phi(a) contracts: its slope is one less the truncated normal's variance ratio, between 0 and
-1), and the hit's
-shortfall is sigma * phi(a) / Phi(a) at that d. The neighbours decide, so a hit's own noise does
-not choose its correction.
+1), and the hit's shortfall is sigma * phi(a) / Phi(a) at that d. The neighbours decide, so a
+hit's own noise does not choose its correction.
 
 censoring_shortfall: compiled; censoring_shortfall_ref: vectorised numpy, for tests.
 """
